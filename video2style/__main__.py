@@ -1,0 +1,5 @@
+import sys
+
+from video2style.cli import main
+
+sys.exit(main())

@@ -1,0 +1,133 @@
+"""The ``video2style`` command line: parse, validate, call library functions, report.
+
+Run ``video2style COMMAND --help`` for each command's options and examples.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+EXAMPLES = """examples:
+  video2style demo                                   # everything on the bundled samples
+  video2style preview walk.bvh other.bvh -o cmp.mp4  # look at clips side by side
+  video2style dataset --bandai2 bandai2.tar.xz --bandai1 bandai1-seen-styles.tar.xz
+  video2style train-prior --max-minutes 60           # resumable; run again to continue
+"""
+
+
+class CliError(Exception):
+    """A user-facing error: printed as one line, exit status 1."""
+
+
+def _positive(v: str) -> float:
+    x = float(v)
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {v}")
+    return x
+
+
+def cmd_dataset(args) -> None:
+    from transfer.dataset import build_dataset
+
+    archives = [a for a in (args.bandai2, args.bandai1) if a is not None]
+    if not archives:
+        raise CliError("dataset: give --bandai2 and/or --bandai1 (the .tar.xz archives)")
+    for a in archives:
+        if not a.is_file():
+            raise CliError(f"{a}: no such file")
+    summary = build_dataset(archives, args.out, seed=args.seed, progress=not args.quiet)
+    print(f"wrote {args.out} in {summary['seconds']:.0f} s: {summary['clips']} clips (mirrored copies included)")
+    for name, s in summary["splits"].items():
+        print(f"  {name:5s} {s['clips']:5d} clips {s['frames']:7d} frames {s['hours']:.2f} h")
+    for f in summary["failed"]:
+        print(f"  skipped {f}", file=sys.stderr)
+
+
+def cmd_preview(args) -> None:
+    from motioncore.retarget import load_joint_map
+    from video2style.preview import preview_bvh_files
+
+    joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    out = preview_bvh_files(args.clips, args.output, canonical=args.canonical, joint_map=joint_map)
+    print(f"wrote {out}")
+
+
+def cmd_train_prior(args) -> None:
+    from dataclasses import fields
+
+    from transfer.prior import PriorTrainConfig, train_prior
+
+    explicit = {f.name: getattr(args, f.name) for f in fields(PriorTrainConfig) if getattr(args, f.name, None) is not None}
+    config = PriorTrainConfig(**explicit)
+    trainer = train_prior(args.data, args.out, config, args.max_minutes, args.max_steps, explicit, progress=not args.quiet)
+    print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'denoiser.safetensors'}")
+
+
+def cmd_demo(args) -> None:
+    from video2style.demo import run_demo
+
+    for line in run_demo(args.out):
+        print(line)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from video2style.paths import cache_dir, default_dataset_dir
+
+    p = argparse.ArgumentParser(prog="video2style", description=__doc__, epilog=EXAMPLES,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    m = sub.add_parser("demo", help="run the pipeline on the bundled samples/ (project-made clips)")
+    m.add_argument("-o", "--out", type=Path, default=Path("demo_out"), help="output folder (default: ./%(default)s)")
+    m.set_defaults(func=cmd_demo)
+
+    d = sub.add_parser("dataset", help="build the training cache from the Bandai-Namco archives")
+    d.add_argument("--bandai2", type=Path, help="Bandai-Namco-Research-Motiondataset-2 .tar.xz")
+    d.add_argument("--bandai1", type=Path, help="Bandai-Namco-Research-Motiondataset-1 (seen styles) .tar.xz")
+    d.add_argument("-o", "--out", type=Path, default=default_dataset_dir(), help="cache folder (default: %(default)s)")
+    d.add_argument("--seed", type=int, default=0, help="split seed (default: %(default)s)")
+    d.add_argument("-q", "--quiet", action="store_true")
+    d.set_defaults(func=cmd_dataset)
+
+    v = sub.add_parser("preview", help="render BVH clips side by side to an mp4",
+                       epilog="example: video2style preview a.bvh b.bvh --canonical -o ab.mp4")
+    v.add_argument("clips", nargs="+", type=Path)
+    v.add_argument("-o", "--output", type=Path, required=True, help="output .mp4")
+    v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
+    v.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name")
+    v.set_defaults(func=cmd_preview)
+
+    t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")
+    t.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
+    t.add_argument("--out", type=Path, default=cache_dir() / "runs" / "prior", help="run folder (default: %(default)s)")
+    t.add_argument("--max-minutes", type=_positive, default=60.0)
+    t.add_argument("--max-steps", type=int, default=10**9)
+    for name, typ in [("width", int), ("layers", int), ("heads", int), ("ff", int), ("batch_size", int), ("window", int),
+                      ("lr", float), ("seed", int)]:
+        t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
+                       help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
+    t.add_argument("-q", "--quiet", action="store_true")
+    t.set_defaults(func=cmd_train_prior)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        args.func(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (CliError, ValueError, FileNotFoundError, RuntimeError) as e:
+        print(f"video2style {args.command}: error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
