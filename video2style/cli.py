@@ -64,6 +64,73 @@ def cmd_train_prior(args) -> None:
     print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'denoiser.safetensors'}")
 
 
+def cmd_train_encoder(args) -> None:
+    from dataclasses import fields
+
+    from transfer.motion_encoder import EncoderTrainConfig, train_motion_encoder
+
+    explicit = {f.name: getattr(args, f.name) for f in fields(EncoderTrainConfig) if getattr(args, f.name, None) is not None}
+    trainer = train_motion_encoder(args.data, args.prior, args.out, EncoderTrainConfig(**explicit), args.max_minutes,
+                                   args.max_steps, explicit, progress=not args.quiet)
+    print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'motion_encoder.safetensors'}")
+
+
+def cmd_learn(args) -> None:
+    from dataclasses import replace
+
+    from motioncore.retarget import load_joint_map
+    from transfer.style import StyleConfig
+    from video2style.pipeline import learn_file
+
+    config = StyleConfig()
+    if args.seconds is not None:
+        config = replace(config, max_seconds=args.seconds)
+    if args.iterations is not None:
+        config = replace(config, iterations=args.iterations)
+    out = args.output or Path(args.input.stem + ".v2s")
+    joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    summary = learn_file(args.input, out, args.style, args.text, config, joint_map)
+    print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
+          f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
+
+
+def _bvh_inputs(paths: list[Path]) -> list[Path]:
+    files = []
+    for p in paths:
+        if p.is_dir():
+            files += sorted(q for q in p.rglob("*") if q.suffix.lower() == ".bvh")
+        else:
+            files.append(p)
+    if not files:
+        raise CliError("apply: no BVH files found in the inputs")
+    return files
+
+
+def cmd_apply(args) -> None:
+    from motioncore.retarget import load_joint_map
+    from transfer.apply import strength_to_step
+    from transfer.style import Style, style_model
+    from video2style.pipeline import apply_file, load_models
+
+    step = strength_to_step(args.strength)
+    style = Style.load(args.style)
+    model = style_model(load_models().prior, style)
+    joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    failed = 0
+    files = _bvh_inputs(args.inputs)
+    for i, path in enumerate(files, 1):
+        try:
+            info = apply_file(style, model, path, args.output, step, args.seed, args.neutralize, joint_map, not args.no_preview)
+        except (ValueError, FileNotFoundError, OSError) as e:
+            failed += 1
+            print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
+            continue
+        extra = f", neutralised ({info['detected']})" if info["neutralized"] else ""
+        print(f"[{i}/{len(files)}] {path} -> {info['output']} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra})")
+    if failed:
+        raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+
+
 def cmd_demo(args) -> None:
     from video2style.demo import run_demo
 
@@ -98,6 +165,32 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name")
     v.set_defaults(func=cmd_preview)
 
+    lr = sub.add_parser("learn", help="learn a style from a video or a BVH clip",
+                        epilog="examples:\n  video2style learn old_man.mp4 --style old -o old.v2s\n"
+                               "  video2style learn strut.bvh --style strutting --text 'a person walks'",
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...) or .bvh")
+    lr.add_argument("--style", help="style words, e.g. 'old' (default: from the file name)")
+    lr.add_argument("--text", help="what the person does, e.g. 'a person walks' (default: recognised)")
+    lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
+    lr.add_argument("--seconds", type=_positive, help="fine-tuning time budget in seconds (default: 60)")
+    lr.add_argument("--iterations", type=int, help="fine-tuning iterations at most (default: 150)")
+    lr.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name (BVH input)")
+    lr.set_defaults(func=cmd_learn)
+
+    ap = sub.add_parser("apply", help="apply a learned style to BVH clips",
+                        epilog="example: video2style apply old.v2s library/ -o out/ --strength 0.6")
+    ap.add_argument("style", type=Path, help="style file from `video2style learn`")
+    ap.add_argument("inputs", nargs="+", type=Path, help="BVH files or folders")
+    ap.add_argument("-o", "--output", type=Path, required=True, help="output folder")
+    ap.add_argument("--strength", type=float, default=0.5, help="0..1, how much of the content is redrawn (default: %(default)s = K 300)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
+                    help="neutralise styled content first (auto: when the motion encoder recognises a style)")
+    ap.add_argument("--no-preview", action="store_true")
+    ap.add_argument("--joint-map", type=Path)
+    ap.set_defaults(func=cmd_apply)
+
     t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")
     t.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     t.add_argument("--out", type=Path, default=cache_dir() / "runs" / "prior", help="run folder (default: %(default)s)")
@@ -109,6 +202,18 @@ def build_parser() -> argparse.ArgumentParser:
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
     t.add_argument("-q", "--quiet", action="store_true")
     t.set_defaults(func=cmd_train_prior)
+
+    e = sub.add_parser("train-encoder", help="train (or resume) the motion-text encoder on top of a trained prior")
+    e.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
+    e.add_argument("--prior", type=Path, required=True, help="the prior's denoiser.safetensors")
+    e.add_argument("--out", type=Path, default=cache_dir() / "runs" / "encoder", help="run folder (default: %(default)s)")
+    e.add_argument("--max-minutes", type=_positive, default=30.0)
+    e.add_argument("--max-steps", type=int, default=10**9)
+    for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", int)]:
+        e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
+                       help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
+    e.add_argument("-q", "--quiet", action="store_true")
+    e.set_defaults(func=cmd_train_encoder)
     return p
 
 

@@ -1,0 +1,84 @@
+"""Streaming access to video files through OpenCV (one frame in memory at a time)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+DEFAULT_FPS = 30.0
+
+
+def _open(path: str | Path) -> tuple[Path, cv2.VideoCapture]:
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"video file not found: {path}")
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        cap.release()
+        raise ValueError(f"cannot open as a video (not a video or unsupported codec): {path}")
+    return path, cap
+
+
+def _fps(cap: cv2.VideoCapture, path: Path) -> float:
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    if not fps or not math.isfinite(fps) or fps <= 0:
+        warnings.warn(f"{path}: no frame rate in the file, assuming {DEFAULT_FPS} fps", stacklevel=3)
+        return DEFAULT_FPS
+    return float(fps)
+
+
+def video_info(path: str | Path) -> tuple[float, int, int, int]:
+    """``(fps, n_frames, width, height)`` of a video file.
+
+    ``n_frames`` is the container's count; when the container has none it is
+    counted by decoding. Raises ``ValueError`` for a missing file, a file that
+    is not a readable video, or a video without frames.
+    """
+    path, cap = _open(path)
+    try:
+        fps = _fps(cap, path)
+        ok, frame = cap.read()
+        if not ok or frame is None:
+            raise ValueError(f"video has no readable frames: {path}")
+        height, width = frame.shape[:2]
+        n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        if n_frames <= 0:
+            n_frames = 1
+            while cap.grab():
+                n_frames += 1
+        return fps, n_frames, width, height
+    finally:
+        cap.release()
+
+
+def iter_frames(path: str | Path) -> Iterator[tuple[int, float, np.ndarray]]:
+    """Iterator of ``(index, time_s, frame_bgr)``, decoding one frame at a time.
+
+    ``frame_bgr`` is (H,W,3) uint8 in OpenCV's BGR order; ``time_s`` =
+    index / fps (constant frame rate assumed). A missing or unopenable file
+    raises ``ValueError`` at the call; a video without a single readable frame
+    raises it on the first ``next()``.
+    """
+    path, cap = _open(path)
+    fps = _fps(cap, path)
+    return _frames(path, cap, fps)
+
+
+def _frames(path: Path, cap: cv2.VideoCapture, fps: float) -> Iterator[tuple[int, float, np.ndarray]]:
+    try:
+        index = 0
+        while True:
+            ok, frame = cap.read()
+            if not ok or frame is None:
+                break
+            yield index, index / fps, frame
+            index += 1
+        if index == 0:
+            raise ValueError(f"video has no readable frames: {path}")
+    finally:
+        cap.release()

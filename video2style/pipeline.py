@@ -1,0 +1,171 @@
+"""Orchestration of learn / apply over files: reading inputs, models, writing BVH and previews."""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import torch
+
+from motioncore.bvh import BvhLayout, read_bvh, write_bvh
+from motioncore.motion import Motion, resample
+from motioncore.representation import decode, encode
+from motioncore.retarget import Rig, from_canonical, make_rig, place_on_floor, to_canonical
+from motioncore.skeleton import CANONICAL
+from video2style.paths import PACKAGE_ROOT
+
+WEIGHTS = PACKAGE_ROOT / "transfer" / "weights"
+VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
+
+
+def weights_path(name: str) -> Path:
+    """A model file: ``$VIDEO2STYLE_WEIGHTS/name`` if set, else the weights shipped with the package."""
+    base = Path(os.environ.get("VIDEO2STYLE_WEIGHTS", WEIGHTS))
+    path = base / name
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: model weights missing (train them with video2style train-prior / train-encoder, "
+                                "or set VIDEO2STYLE_WEIGHTS to a folder holding them)")
+    return path
+
+
+@dataclass
+class Models:
+    prior: torch.nn.Module
+    mean: torch.Tensor
+    std: torch.Tensor
+    motion_encoder: torch.nn.Module
+    text_encoder: object
+    prior_path: Path
+
+
+@lru_cache(maxsize=1)
+def load_models() -> Models:
+    from transfer.motion_encoder import load_motion_encoder
+    from transfer.prior import load_prior
+    from transfer.text_encoder import default_text_encoder
+
+    prior_path = weights_path("denoiser.safetensors")
+    prior, mean, std = load_prior(prior_path)
+    encoder = load_motion_encoder(weights_path("motion_encoder.safetensors"))
+    return Models(prior, mean, std, encoder, default_text_encoder(), prior_path)
+
+
+@dataclass
+class Clip:
+    """An input clip on the canonical skeleton at the canonical fps, and how to write results back."""
+
+    path: Path
+    canonical: Motion
+    rig: Rig | None = None
+    layout: BvhLayout | None = None
+    fps: float = CANONICAL.fps
+
+
+def read_clip(path: Path, joint_map: dict | None = None, progress=None) -> Clip:
+    """A BVH (any supported skeleton) or a video (via the lifting pipeline) -> :class:`Clip`."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such file")
+    if path.suffix.lower() in VIDEO_SUFFIXES:
+        from lifting.pipeline import video_to_motion
+
+        canon = video_to_motion(path, progress=progress)
+        return Clip(path, resample(canon, CANONICAL.fps), fps=canon.fps)
+    motion, layout = read_bvh(path)
+    rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
+    canon = place_on_floor(to_canonical(resample(motion, CANONICAL.fps), rig))
+    if canon.num_frames < 10:
+        raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
+    return Clip(path, canon, rig, layout, motion.fps)
+
+
+def write_result(clip: Clip, result: Motion, out_path: Path) -> Path:
+    """Write ``result`` (canonical) as BVH on the clip's own skeleton and frame rate when it has one."""
+    if clip.rig is not None:
+        motion = resample(from_canonical(result, clip.rig), clip.fps)
+        write_bvh(out_path, motion, clip.layout)
+    else:
+        write_bvh(out_path, result, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    return out_path
+
+
+def example_motion(style) -> Motion | None:
+    """The style example stored in a style file, decoded for previews."""
+    return None if style.example is None else decode(style.example.float())
+
+
+def elapsed(t0: float) -> str:
+    return f"{time.time() - t0:.1f} s"
+
+
+def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
+               config=None, joint_map: dict | None = None, progress=print) -> dict:
+    """Learn a style from a video or BVH and save it to ``out_path``; returns a summary."""
+    from transfer.apply import classify_caption
+    from transfer.dataset import MotionDataset
+    from transfer.style import StyleConfig, learn_style
+    from video2style.paths import default_dataset_dir
+
+    t0 = time.time()
+    config = config or StyleConfig()
+    style_words = style_words or Path(path).stem.replace("_", " ").replace("-", " ")
+    progress(f"[1/4] reading {path}")
+    clip = read_clip(path, joint_map, progress=progress)
+    progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
+    m = load_models()
+    example = (encode(clip.canonical) - m.mean) / m.std
+    if text is None:
+        content, _, top = classify_caption(m.motion_encoder, m.text_encoder, example)
+        text = content
+        progress(f"[2/4] content by retrieval: {top[0][0]!r} (then {top[1][0]!r})")
+    else:
+        progress(f"[2/4] content given: {text!r}")
+    data_dir = Path(os.environ.get("VIDEO2STYLE_DATA", default_dataset_dir()))
+    dataset = MotionDataset(data_dir, "train")
+    progress("[3/4] learning")
+    style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
+                              m.prior_path, progress=lambda s: progress(f"      {s}"))
+    style.example = encode(clip.canonical)
+    style.meta.update({"source": Path(path).name, "example_seconds": round(clip.canonical.duration, 2)})
+    progress(f"[4/4] writing {out_path}")
+    style.save(out_path)
+    return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
+            "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size}
+
+
+def apply_file(style, model, path: Path, out_dir: Path, step: int, seed: int = 0, neutralize: str = "auto",
+               joint_map: dict | None = None, preview: bool = True) -> dict:
+    """Apply a loaded style (``model`` = prior + adapters) to one BVH; writes ``out_dir/<name>.bvh`` (+ preview)."""
+    from transfer.apply import apply_style_motion, classify_caption
+    from transfer.captions import content_caption
+    from transfer.style import StyleConfig
+
+    t0 = time.time()
+    m = load_models()
+    clip = read_clip(path, joint_map)
+    config = StyleConfig(**style.meta.get("config", {}))
+    neutral_text, detected = None, None
+    if neutralize != "never":
+        content, style_label, _ = classify_caption(m.motion_encoder, m.text_encoder, (encode(clip.canonical) - m.mean) / m.std)
+        detected = f"{content}/{style_label}"
+        if neutralize == "always" or style_label != "normal":
+            neutral_text = m.text_encoder.encode([content_caption(content)])
+    result = apply_style_motion(model, m.prior, clip.canonical, m.mean, m.std, config, step, seed, neutral_text)
+    out_dir = Path(out_dir)
+    out_bvh = write_result(clip, result, out_dir / f"{Path(path).stem}.bvh")
+    info = {"input": str(path), "output": str(out_bvh), "frames": clip.canonical.num_frames, "detected": detected,
+            "neutralized": neutral_text is not None, "seconds_transfer": time.time() - t0}
+    if preview:
+        from motioncore.render import Panel, render_video
+
+        sk = CANONICAL.skeleton
+        panels = [Panel(clip.canonical.global_positions(), sk.parents, "content", names=sk.names)]
+        ex = example_motion(style)
+        if ex is not None:
+            panels.append(Panel(ex.global_positions(), sk.parents, f"style: {style.meta.get('style', '')}", names=sk.names))
+        panels.append(Panel(result.global_positions(), sk.parents, "result", names=sk.names))
+        info["preview"] = str(render_video(panels, out_dir / f"{Path(path).stem}_preview.mp4", CANONICAL.fps, size=(360, 360), progress=False))
+    info["seconds"] = time.time() - t0
+    return info
