@@ -10,6 +10,9 @@ from pathlib import Path
 
 EXAMPLES = """examples:
   video2style demo                                   # everything on the bundled samples
+  video2style learn old_man.mp4 --style old -o old.v2s
+  video2style apply old.v2s library/ -o out/
+  video2style batch videos/ --content library/ -o results/
   video2style preview walk.bvh other.bvh -o cmp.mp4  # look at clips side by side
   video2style dataset --bandai2 bandai2.tar.xz --bandai1 bandai1-seen-styles.tar.xz
   video2style train-prior --max-minutes 60           # resumable; run again to continue
@@ -131,6 +134,17 @@ def cmd_apply(args) -> None:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
 
+def cmd_batch(args) -> None:
+    from transfer.apply import strength_to_step
+    from video2style.batch import run_batch
+
+    report = run_batch(args.videos, args.content, args.output, strength_to_step(args.strength), seed=args.seed)
+    print(report.table())
+    print(f"index: {args.output / 'index.html'}")
+    if report.failures:
+        raise CliError(f"{len(report.failures)} item(s) failed (see the table)")
+
+
 def cmd_demo(args) -> None:
     from video2style.demo import run_demo
 
@@ -190,6 +204,15 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--no-preview", action="store_true")
     ap.add_argument("--joint-map", type=Path)
     ap.set_defaults(func=cmd_apply)
+
+    b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
+                       epilog="example: video2style batch videos/ --content library/ -o results/")
+    b.add_argument("videos", type=Path, help="folder of videos")
+    b.add_argument("--content", type=Path, required=True, help="folder of BVH clips (searched recursively)")
+    b.add_argument("-o", "--output", type=Path, required=True)
+    b.add_argument("--strength", type=float, default=0.5)
+    b.add_argument("--seed", type=int, default=0)
+    b.set_defaults(func=cmd_batch)
 
     t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")
     t.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")

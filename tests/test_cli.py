@@ -1,0 +1,54 @@
+import subprocess
+import sys
+
+import pytest
+
+from video2style.cli import main
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "video2style", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_help_lists_commands_with_examples():
+    r = run("--help")
+    assert r.returncode == 0
+    for cmd in ("demo", "learn", "apply", "batch", "preview", "dataset", "train-prior"):
+        assert cmd in r.stdout
+    assert "examples:" in r.stdout
+
+
+def test_preview_of_a_malformed_bvh_is_one_line_naming_file_and_line(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 zero 0\n")
+    out = tmp_path / "out.mp4"
+    r = run("preview", str(bad), "-o", str(out))
+    assert r.returncode == 1
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and f"{bad}:4:" in lines[0]
+    assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
+
+
+def test_apply_with_a_garbage_style_file(tmp_path, capsys):
+    style = tmp_path / "x.v2s"
+    style.write_text("nope")
+    assert main(["apply", str(style), str(tmp_path), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and str(style) in err
+
+
+def test_bad_strength_is_rejected(tmp_path, capsys):
+    assert main(["apply", "a.v2s", "b.bvh", "-o", str(tmp_path), "--strength", "3"]) == 1
+    assert "strength" in capsys.readouterr().err
+
+
+def test_dataset_needs_an_archive(capsys):
+    assert main(["dataset"]) == 1
+    assert "--bandai2" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["learn"], ["apply"], ["nonsense"]])
+def test_usage_errors_exit_nonzero(argv):
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2

@@ -1,0 +1,129 @@
+import torch
+
+from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
+from motioncore.kinematics import fk
+from motioncore.representation import FEATURES, encode, foot_contacts
+from motioncore.skeleton import CANONICAL
+from tests.helpers import random_motion
+from transfer.apply import apply_style_features, crossfade, strength_to_step, window_starts
+from transfer.denoiser import Denoiser, DenoiserConfig
+from transfer.lora import LoRALinear, add_lora, lora_state, set_strength
+from transfer.style import Style, StyleConfig, style_model
+
+
+def tiny_denoiser(seed=0):
+    torch.manual_seed(seed)
+    return Denoiser(DenoiserConfig(width=32, layers=2, heads=2, ff=64, dropout=0.0)).eval()
+
+
+def test_lora_starts_as_identity_and_only_adapters_train():
+    model = tiny_denoiser()
+    x = torch.randn(2, 10, FEATURES.dim)
+    before = model(x, torch.tensor([5, 5]))
+    wrapped = add_lora(model, rank=4)
+    assert len(wrapped) == 2 * 6
+    assert torch.allclose(model(x, torch.tensor([5, 5])), before, atol=1e-6)
+    trainable = [n for n, p in model.named_parameters() if p.requires_grad]
+    assert trainable and all(n.endswith(("lora_a", "lora_b")) for n in trainable)
+
+
+def test_style_file_round_trip_and_strength(tmp_path):
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    style = Style(lora_state(model), {"rank": 8, "style": "old", "config": {}}, torch.randn(20, FEATURES.dim))
+    style.save(tmp_path / "old.v2s")
+    loaded = Style.load(tmp_path / "old.v2s")
+    assert loaded.meta["style"] == "old" and loaded.example.shape == (20, FEATURES.dim)
+    assert set(loaded.adapters) == set(style.adapters)
+    for k in style.adapters:  # stored as float16
+        assert torch.allclose(loaded.adapters[k], style.adapters[k], atol=1e-2)
+    again = style_model(prior, loaded)
+    x = torch.randn(1, 12, FEATURES.dim)
+    t = torch.tensor([100])
+    assert not torch.allclose(again(x, t), prior(x, t))
+    set_strength(again, 0.0)
+    assert torch.allclose(again(x, t), prior(x, t), atol=1e-5)
+
+
+def _trained_style(prior):
+    import copy
+
+    model = copy.deepcopy(prior)
+    add_lora(model, rank=8)
+    for m in model.modules():
+        if isinstance(m, LoRALinear):
+            torch.nn.init.normal_(m.lora_b, std=0.5)
+    return Style(lora_state(model), {"rank": 8})
+
+
+def test_bad_style_file_is_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.v2s"
+    bad.write_bytes(b"not a safetensors file")
+    try:
+        Style.load(bad)
+    except ValueError as e:
+        assert str(e).startswith(str(bad)) and "not a video2style style file" in str(e)
+    else:
+        raise AssertionError("expected ValueError")
+
+
+def test_strength_maps_to_k():
+    assert strength_to_step(0.5) == 300 and strength_to_step(1.0) == 600 and strength_to_step(0.001) == 1
+
+
+def test_apply_keeps_length_and_trajectory():
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    x = torch.randn(150, FEATURES.dim)
+    out = apply_style_features(model, prior, x, StyleConfig(), step=300, seed=0)
+    assert out.shape == x.shape
+    for s in (FEATURES.root_rvel, FEATURES.root_lvel):
+        assert torch.allclose(out[:, s], x[:, s], atol=1e-5)
+    again = apply_style_features(model, prior, x, StyleConfig(), step=300, seed=0)
+    assert torch.equal(out, again)  # seeded
+
+
+def test_windows_cover_and_crossfade_is_seamless():
+    for n in (10, 80, 81, 150, 333):
+        starts = window_starts(n, 80, 20)
+        covered = torch.zeros(n, dtype=torch.bool)
+        for s in starts:
+            covered[s:s + 80] = True
+        assert covered.all() and starts[-1] + min(80, n) == n
+    ramp = torch.arange(333.0)[:, None]
+    starts = window_starts(333, 80, 20)
+    assert torch.allclose(crossfade([ramp[s:s + 80] for s in starts], starts, 333), ramp)
+
+
+def test_two_bone_ik_reaches_reachable_targets():
+    m = random_motion(seconds=1.0, seed=4)
+    grot, gpos = fk(m.lrot, m.lpos, CANONICAL.skeleton.parents)
+    hip, knee, ankle = CANONICAL.legs[1]
+    target = gpos[:, ankle] + torch.tensor([0.03, 0.05, -0.02])
+    lrot = two_bone_ik(grot, gpos, m.lrot, CANONICAL.skeleton.parents, hip, knee, ankle, target)
+    grot2, gpos2 = fk(lrot, m.lpos, CANONICAL.skeleton.parents)
+    assert (gpos2[:, ankle] - target).norm(dim=-1).max() < 1e-4
+    assert ((grot2[:, ankle] * grot[:, ankle]).sum(-1).abs() > 1 - 1e-5).all()  # foot keeps its orientation
+
+
+def test_contact_runs_and_pinning():
+    flags = torch.tensor([0, 1, 1, 1, 0, 0, 1, 1], dtype=torch.bool)
+    assert contact_runs(flags) == [(1, 4), (6, 8)]
+    ankle = torch.stack([torch.arange(8.0) * 0.1, torch.full((8,), 0.2), torch.zeros(8)], -1)
+    tgt = ankle_targets(ankle, flags, blend=1, floor=0.3)
+    assert torch.allclose(tgt[1:4, 0], torch.full((3,), 0.2))  # pinned to the run's mean
+    assert (tgt[:, 1] >= 0.3).all()  # never below the floor
+
+
+def test_cleanup_removes_sliding_of_a_planted_foot():
+    m = random_motion(seconds=2.0, seed=9, amplitude=0.0)
+    still = type(m)(m.skeleton, m.lrot, m.lpos[:1].expand_as(m.lpos).clone(), m.fps)
+    jitter = still.lpos.clone()
+    jitter[:, 0, 0] += 0.03 * torch.sin(torch.arange(m.num_frames) * 0.5)  # hips sway: feet slide with them
+    swaying = type(m)(m.skeleton, m.lrot, jitter, m.fps)
+    out = cleanup_feet(swaying, reference=still)
+    ankle = CANONICAL.legs[0][2]
+    p_before, p_after = swaying.global_positions()[:, ankle], out.global_positions()[:, ankle]
+    assert p_before[:, 0].std() > 0.01 and p_after[:, 0].std() < 1e-3
+    assert foot_contacts(still.global_positions(), m.fps).all()
+    assert encode(out).shape == (m.num_frames, FEATURES.dim)
