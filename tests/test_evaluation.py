@@ -1,0 +1,104 @@
+from collections import Counter
+from pathlib import Path
+
+import pytest
+import torch
+
+from tests.synthetic_cache import write_synthetic_cache
+from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.classifiers import ClassifierConfig, MotionClassifier
+from transfer.dataset import ClipRecord, MotionDataset
+from transfer.denoiser import save_model
+from transfer.evaluation import format_table, identity_transfer, protocol_clips, run_protocol, select_protocol
+
+REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
+
+
+def _bandai2_like_records() -> list[ClipRecord]:
+    """The real split's shape: 6 test originals per content x style cell, their mirrors, and train/val decoys."""
+    recs = []
+    for c in BANDAI2_CONTENTS:
+        for s in STYLES:
+            for split, n in (("test", 6), ("val", 3), ("train", 2)):
+                for i in range(n):
+                    for mirrored in (False, True):
+                        recs.append(ClipRecord(f"{c}_{s}_{split}{i}{'_m' if mirrored else ''}", "bandai2", c, s, "", split, mirrored, 0, 40))
+    recs.append(ClipRecord("b1", "bandai1", "walk", "normal", "", "test", False, 0, 40))
+    return recs
+
+
+def test_protocol_selection_counts_and_rules():
+    recs = _bandai2_like_records()
+    full = select_protocol(recs, quick=False, seed=0)
+    assert len(full) == 3780  # Hu et al.'s number of transfer combinations on Bandai-2
+    assert len(select_protocol(recs, quick=True, seed=0)) == 10 * 2 * 6
+    for it in full:
+        c, s = recs[it.content_index], recs[it.style_index]
+        for r in (c, s):
+            assert r.dataset == "bandai2" and r.split == "test" and not r.mirrored
+        assert it.content == c.content and it.source_style == c.style
+        assert s.style == it.target_style != it.source_style
+    content_clips = {it.content_index for it in full}
+    assert len(content_clips) == 90
+    per_content = Counter(recs[i].content for i in content_clips)
+    assert set(per_content.values()) == {9}
+    # 9 clips per content over 7 source styles: every style once or twice
+    for c in BANDAI2_CONTENTS:
+        counts = Counter(recs[i].style for i in content_clips if recs[i].content == c)
+        assert set(counts) == set(STYLES) and max(counts.values()) <= 2
+    # each (content clip, target style) pair gets 7 distinct style examples
+    pairs = Counter((it.content_index, it.target_style) for it in full)
+    assert set(pairs.values()) == {7}
+    assert len({(it.content_index, it.target_style, it.style_index) for it in full}) == 3780
+
+
+def test_protocol_selection_is_seeded():
+    recs = _bandai2_like_records()
+    assert select_protocol(recs, True, seed=1) == select_protocol(recs, True, seed=1)
+    assert select_protocol(recs, True, seed=1) != select_protocol(recs, True, seed=2)
+    assert protocol_clips(recs) == [i for i, r in enumerate(recs) if r.split == "test" and not r.mirrored and r.dataset == "bandai2"]
+    with pytest.raises(ValueError, match="no non-mirrored"):
+        select_protocol([r for r in recs if r.split != "test"])
+
+
+def _random_classifier(path: Path, target: str, classes: list[str]) -> Path:
+    torch.manual_seed(len(classes))
+    model = MotionClassifier(ClassifierConfig(target=target, classes=classes, channels=[8, 8], strides=[2, 1]))
+    save_model(model.eval(), model.config, path)
+    return path
+
+
+def test_run_protocol_on_a_tiny_cache(tmp_path):
+    cache = write_synthetic_cache(tmp_path / "cache")
+    content = _random_classifier(tmp_path / "content.safetensors", "content", list(BANDAI2_CONTENTS))
+    style = _random_classifier(tmp_path / "style.safetensors", "style", list(STYLES))
+    calls = []
+
+    def noisy(c, s, style_label, content_label):
+        calls.append((style_label, content_label))
+        return c + 0.5 * torch.randn_like(c)
+
+    rows = run_protocol({"identity": identity_transfer, "noisy": noisy}, cache, quick=False, per_content=3,
+                        examples_per_style=2, content_classifier=content, style_classifier=style, progress=False)
+    assert [r["method"] for r in rows] == ["real test clips (reference)", "identity", "noisy"]
+    real, ident, noise = rows
+    assert real["transfers"] == 2 * 2 * 6
+    assert ident["transfers"] == noise["transfers"] == len(calls) == 2 * 3 * 1 * 2
+    assert ident["contact_agreement"] == 1.0 and 0.0 <= noise["contact_agreement"] <= 1.0
+    assert ident["fmd"] >= 0 and noise["fmd"] > ident["fmd"]
+    assert {s for s, _ in calls} <= {"normal", "elderly"} and all(s != "" for s, _ in calls)
+    table = format_table(rows)
+    assert table.count("\n") == 4 and "| identity | 12 |" in table
+
+    def broken(c, s, style_label, content_label):
+        return c[:-1]
+
+    with pytest.raises(ValueError, match="method 'broken'"):
+        run_protocol({"broken": broken}, cache, quick=True, content_classifier=content, style_classifier=style, progress=False)
+
+
+@pytest.mark.skipif(not (REAL_CACHE / "clips.json").is_file(), reason="needs the real dataset cache (video2style dataset)")
+def test_real_cache_protocol_shape():
+    recs = MotionDataset(REAL_CACHE, split=None).records
+    assert len(protocol_clips(recs)) == 420
+    assert len(select_protocol(recs, quick=False)) == 3780

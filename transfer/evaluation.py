@@ -1,0 +1,216 @@
+"""Style transfer evaluation protocol on the Bandai-2 test split, after Hu et al. 2024 §4.2.
+
+Selection (:func:`select_protocol`, seeded): only the *non-mirrored* Bandai-2 test originals
+(the split holds 6 per content x style cell: 420 clips). For each content, ``per_content``
+content clips are drawn spread evenly over their source styles (styles in a shuffled cycle, a
+random clip of the cell each time); each is transferred to every *other* style, each time with
+``examples_per_style`` style examples drawn without replacement from the test originals of that
+style (any content). Full: 9 per content x 6 other styles x 7 examples = 3780 transfers, Hu et
+al.'s count; ``quick``: 2 per content x 6 x 1 = 120.
+
+A method is ``transfer(content (T, D), style (T', D), style_label, content_label) -> (T, D)``,
+features normalised with the cache's statistics. :func:`run_protocol` reports per method:
+
+- ``fmd``: Fréchet distance between the content classifier's pooled features of the 420 real
+  test originals and of the generated set (depends on the set sizes: compare equal protocols);
+- ``cra`` / ``sra``: content / style classifier accuracy against the content clip's content and
+  the target style;
+- ``skating``: :func:`transfer.metrics.foot_skating_ratio` of the generated motions' decoded
+  positions (the reference row gives the real test clips' ratio under the same rule);
+- ``contact_agreement``: foot contact agreement between each content clip and its output;
+- ``sec_per_transfer``: mean wall time of one ``transfer`` call.
+"""
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+from tqdm import tqdm
+
+from motioncore.representation import decode_positions
+from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.classifiers import MotionClassifier, default_weights, load_classifier, run_batched
+from transfer.dataset import ClipRecord, MotionDataset
+from transfer.metrics import foot_contact_agreement, foot_skating_ratio, frechet_distance, recognition_accuracy
+
+Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
+
+FULL = {"per_content": 9, "examples_per_style": 7}
+QUICK = {"per_content": 2, "examples_per_style": 1}
+
+
+@dataclass(frozen=True)
+class Transfer:
+    """One protocol item: indices are into the test split's records."""
+
+    content_index: int
+    style_index: int
+    content: str
+    source_style: str
+    target_style: str
+
+
+def protocol_clips(records: Sequence[ClipRecord]) -> list[int]:
+    """Indices of the protocol's clips: Bandai-2, test split, not mirrored."""
+    return [i for i, r in enumerate(records) if r.dataset == "bandai2" and r.split == "test" and not r.mirrored]
+
+
+def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: int = 0,
+                    per_content: int | None = None, examples_per_style: int | None = None) -> list[Transfer]:
+    """The seeded list of transfers (see the module doc); counts default to ``QUICK`` or ``FULL``."""
+    sizes = QUICK if quick else FULL
+    per_content = sizes["per_content"] if per_content is None else per_content
+    examples = sizes["examples_per_style"] if examples_per_style is None else examples_per_style
+    rng = random.Random(seed)
+    pool = protocol_clips(records)
+    if not pool:
+        raise ValueError("select_protocol: no non-mirrored Bandai-2 test clips in the cache")
+    cells: dict[tuple[str, str], list[int]] = {}
+    for i in pool:
+        cells.setdefault((records[i].content, records[i].style), []).append(i)
+    by_style: dict[str, list[int]] = {}
+    for i in pool:
+        by_style.setdefault(records[i].style, []).append(i)
+    styles = [s for s in STYLES if s in by_style]
+    contents = [c for c in BANDAI2_CONTENTS if any(k[0] == c for k in cells)]
+
+    items = []
+    for content in contents:
+        source_styles = [s for s in styles if (content, s) in cells]
+        order: list[str] = []
+        while len(order) < per_content:  # shuffled cycles: source styles as even as possible
+            cycle = source_styles[:]
+            rng.shuffle(cycle)
+            order += cycle
+        used: dict[str, list[int]] = {}
+        for source in order[:per_content]:
+            remaining = [i for i in cells[(content, source)] if i not in used.get(source, [])]
+            if not remaining:  # more draws than clips in the cell: start over
+                used[source], remaining = [], list(cells[(content, source)])
+            ci = rng.choice(remaining)
+            used.setdefault(source, []).append(ci)
+            for target in styles:
+                if target == source:
+                    continue
+                candidates = by_style[target]
+                for si in rng.sample(candidates, min(examples, len(candidates))):
+                    items.append(Transfer(ci, si, content, source, target))
+    return items
+
+
+def identity_transfer(content: torch.Tensor, style: torch.Tensor, style_label: str, content_label: str) -> torch.Tensor:
+    """Baseline: the content motion unchanged."""
+    return content
+
+
+def _check_output(name: str, out, content: torch.Tensor) -> torch.Tensor:
+    if not torch.is_tensor(out) or out.shape != content.shape:
+        shape = tuple(out.shape) if torch.is_tensor(out) else type(out).__name__
+        raise ValueError(f"method {name!r}: expected output features {tuple(content.shape)}, got {shape}")
+    if not torch.isfinite(out).all():
+        raise ValueError(f"method {name!r}: output has non-finite values")
+    return out.detach().float()
+
+
+class _Scorer:
+    """Metrics of a list of raw-feature motions with the two classifiers."""
+
+    def __init__(self, content_clf: MotionClassifier, style_clf: MotionClassifier, fps: float):
+        self.content_clf, self.style_clf, self.fps = content_clf, style_clf, fps
+
+    @torch.no_grad()
+    def score(self, raw: list[torch.Tensor], contents: list[str], styles: list[str]) -> dict:
+        feats = run_batched(self.content_clf, [self.content_clf.normalize(x) for x in raw], "features")
+        content_pred = self.content_clf.eval().head(feats).argmax(-1)  # = recognition_accuracy, one pass fewer
+        return {
+            "features": feats,
+            "cra": float((content_pred == self.content_clf.label_index(contents)).float().mean()),
+            "sra": recognition_accuracy(self.style_clf, [self.style_clf.normalize(x) for x in raw], styles),
+            "skating": foot_skating_ratio([decode_positions(x.double()) for x in raw], self.fps),
+        }
+
+
+def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True, seed: int = 0,
+                 content_classifier: Path | None = None, style_classifier: Path | None = None,
+                 per_content: int | None = None, examples_per_style: int | None = None, progress: bool = True) -> list[dict]:
+    """Run every method on the protocol's transfers; returns one row per method plus the real-data reference row first.
+
+    Row keys: ``method``, ``transfers``, ``fmd``, ``cra``, ``sra``, ``skating``,
+    ``contact_agreement``, ``sec_per_transfer``, ``seconds`` (the method's transfer time in all).
+    """
+    data = MotionDataset(data_dir, split="test")
+    content_clf = load_classifier(content_classifier or default_weights("content"))
+    style_clf = load_classifier(style_classifier or default_weights("style"))
+    fps = 20.0
+    scorer = _Scorer(content_clf, style_clf, fps)
+    items = select_protocol(data.records, quick, seed, per_content, examples_per_style)
+
+    real_idx = protocol_clips(data.records)
+    real_raw = [data.clip(i, normalized=False) for i in real_idx]
+    real = scorer.score(real_raw, [data.records[i].content for i in real_idx], [data.records[i].style for i in real_idx])
+    rows = [{"method": "real test clips (reference)", "transfers": len(real_idx), "fmd": None, "cra": real["cra"],
+             "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None}]
+
+    for name, method in methods.items():
+        outputs, seconds = [], 0.0
+        for it in tqdm(items, desc=name, disable=not progress, unit="transfer"):
+            content, style = data.clip(it.content_index), data.clip(it.style_index)
+            t0 = time.perf_counter()
+            out = method(content.clone(), style.clone(), it.target_style, it.content)
+            seconds += time.perf_counter() - t0
+            outputs.append(data.denormalize(_check_output(name, out, content)))
+        gen = scorer.score(outputs, [it.content for it in items], [it.target_style for it in items])
+        rows.append({
+            "method": name,
+            "transfers": len(items),
+            "fmd": frechet_distance(real["features"], gen["features"]),
+            "cra": gen["cra"],
+            "sra": gen["sra"],
+            "skating": gen["skating"],
+            "contact_agreement": foot_contact_agreement([data.clip(it.content_index, normalized=False) for it in items], outputs, fps),
+            "sec_per_transfer": seconds / len(items),
+            "seconds": seconds,
+        })
+    return rows
+
+
+def format_table(rows: Sequence[dict]) -> str:
+    """Markdown table of :func:`run_protocol` rows (accuracies and ratios in %)."""
+    def num(v, fmt):
+        return "–" if v is None else format(v, fmt)
+
+    lines = ["| method | transfers | FMD ↓ | CRA ↑ (%) | SRA ↑ (%) | foot skating (%) | contact agreement (%) | s / transfer |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        pct = {k: None if r.get(k) is None else 100 * r[k] for k in ("cra", "sra", "skating", "contact_agreement")}
+        lines.append(f"| {r['method']} | {r['transfers']} | {num(r.get('fmd'), '.2f')} | {num(pct['cra'], '.1f')} | "
+                     f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
+                     f"{num(r.get('sec_per_transfer'), '.4f')} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m transfer.evaluation [--full]``: the identity baseline's table."""
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description="Bandai-2 style transfer protocol (Hu et al. 2024 §4.2) for the identity baseline")
+    ap.add_argument("--data", type=Path, default=Path("cache/dataset"))
+    ap.add_argument("--full", action="store_true", help="all 3780 transfers (default: the quick 120)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path, help="also write the rows here")
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    rows = run_protocol({"identity": identity_transfer}, args.data, quick=not args.full, seed=args.seed)
+    print(format_table(rows))
+    print(f"\n{time.time() - t0:.1f} s in all")
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,150 @@
+"""Motion style transfer metrics: FMD, recognition accuracy (CRA/SRA), foot skating, foot contact agreement.
+
+After Hu et al. 2024 §4.2 (FMD, CRA, SRA, following Jang et al. 2022) and Villegas et al. 2021
+(foot contact accuracy). Every metric is applied identically to real and generated motion.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import scipy.linalg
+import torch
+
+from motioncore.representation import decode_positions, foot_contacts, FEATURES
+from motioncore.skeleton import CANONICAL, CanonicalSpec
+
+SKATING_HEIGHT = 0.03  # metres above the joint's lowest point (see foot_skating_ratio)
+SKATING_SPEED = 0.5  # metres per second horizontally (2.5 cm per frame at 20 fps)
+
+
+def _as_2d(x, name: str) -> np.ndarray:
+    a = x.detach().cpu().double().numpy() if torch.is_tensor(x) else np.asarray(x, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] < 2:
+        raise ValueError(f"frechet_distance: expected {name} as (N >= 2, D), got {a.shape}")
+    return a
+
+
+def gaussian_frechet(mu1: np.ndarray, sigma1: np.ndarray, mu2: np.ndarray, sigma2: np.ndarray, eps: float = 1e-6) -> float:
+    """Fréchet distance of two Gaussians: ``|mu1 - mu2|^2 + tr(S1 + S2 - 2 (S1 S2)^(1/2))``."""
+    mu1, mu2 = np.atleast_1d(mu1).astype(np.float64), np.atleast_1d(mu2).astype(np.float64)
+    s1, s2 = np.atleast_2d(sigma1).astype(np.float64), np.atleast_2d(sigma2).astype(np.float64)
+    if mu1.shape != mu2.shape or s1.shape != s2.shape or s1.shape != (mu1.size, mu1.size):
+        raise ValueError(f"gaussian_frechet: shapes differ: {mu1.shape}, {mu2.shape}, {s1.shape}, {s2.shape}")
+    covmean = scipy.linalg.sqrtm(s1 @ s2)
+    if not np.isfinite(covmean).all():  # singular product: regularise both (as pytorch-fid does)
+        offset = np.eye(s1.shape[0]) * eps
+        covmean = scipy.linalg.sqrtm((s1 + offset) @ (s2 + offset))
+    if np.iscomplexobj(covmean):
+        covmean = covmean.real  # round-off gives tiny imaginary parts
+    diff = mu1 - mu2
+    return float(diff @ diff + np.trace(s1) + np.trace(s2) - 2.0 * np.trace(covmean))
+
+
+def frechet_distance(feats_a, feats_b) -> float:
+    """Fréchet distance between Gaussians fitted to two feature sets ``(N, D)`` and ``(M, D)``.
+
+    FMD is this on the content classifier's pooled features (``MotionClassifier.features``) of
+    real and generated motions. Covariances are unbiased (``np.cov``); the value depends on N and
+    M, so compare FMDs only between sets of the same sizes.
+    """
+    a, b = _as_2d(feats_a, "feats_a"), _as_2d(feats_b, "feats_b")
+    if a.shape[1] != b.shape[1]:
+        raise ValueError(f"frechet_distance: feature sizes differ: {a.shape[1]} vs {b.shape[1]}")
+    return gaussian_frechet(a.mean(0), np.cov(a, rowvar=False), b.mean(0), np.cov(b, rowvar=False))
+
+
+def recognition_accuracy(classifier, motions: Sequence[torch.Tensor], labels: Sequence[str | int], batch_size: int = 32) -> float:
+    """Fraction of ``motions`` that ``classifier`` assigns to ``labels`` (class names or indices).
+
+    ``motions``: whole clips ``(T_i, D)`` normalised for the classifier (``classifier.normalize``
+    on raw features). CRA is this with the content classifier and the content clips' labels, SRA
+    with the style classifier and the target styles.
+    """
+    from transfer.classifiers import run_batched
+
+    if len(motions) != len(labels):
+        raise ValueError(f"recognition_accuracy: {len(motions)} motions but {len(labels)} labels")
+    y = classifier.label_index(labels)
+    pred = run_batched(classifier, motions, "logits", batch_size).argmax(-1)
+    return float((pred == y).float().mean())
+
+
+def skating_frames(positions: torch.Tensor, fps: float, height: float = SKATING_HEIGHT, speed: float = SKATING_SPEED,
+                   spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """``(T - 1,)`` bool: transition ``t -> t+1`` skates (definition in :func:`foot_skating_ratio`)."""
+    if positions.ndim != 3 or positions.shape[1:] != (spec.num_joints, 3) or positions.shape[0] < 2:
+        raise ValueError(f"foot_skating_ratio: expected positions (T >= 2, {spec.num_joints}, 3), got {tuple(positions.shape)}")
+    feet = positions[:, list(spec.feet)].double()  # (T, 4, 3): Foot_L, Toes_L, Foot_R, Toes_R
+    h = feet[..., 1] - feet[..., 1].amin(0)  # each joint's height above its own lowest point in the clip
+    low = (h[1:] < height) & (h[:-1] < height)
+    fast = (feet[1:, :, [0, 2]] - feet[:-1, :, [0, 2]]).norm(dim=-1) * fps > speed
+    slide = low & fast  # (T - 1, 4)
+    return (slide[:, 0] & slide[:, 1]) | (slide[:, 2] & slide[:, 3])  # a whole foot (ankle and toes) slides
+
+
+def foot_skating_ratio(positions: torch.Tensor | Sequence[torch.Tensor], fps: float = CANONICAL.fps,
+                       height: float = SKATING_HEIGHT, speed: float = SKATING_SPEED, spec: CanonicalSpec = CANONICAL) -> float:
+    """Fraction of frame transitions in which a planted foot slides; pooled over clips when given a list.
+
+    ``positions``: global joint positions ``(T, J, 3)`` (metres, Y-up) on the canonical skeleton,
+    e.g. ``decode_positions`` of raw features, or a list of them. Definition, per clip:
+
+    - a foot is its two contact joints of ``spec.feet``: (Foot_L, Toes_L) and (Foot_R, Toes_R);
+    - a joint's height is its y above its own lowest y in the clip (so the ankle, which sits
+      higher than the toes when planted, reads 0 when planted, and a clip that floats or sinks
+      as a whole is judged like one on the floor);
+    - a foot skates on transition ``t -> t+1`` if *both* its joints are below ``height`` (3 cm) at
+      both frames while *both* move horizontally (xz) faster than ``speed`` (0.5 m/s, i.e. 2.5 cm
+      per frame at 20 fps). Requiring the whole foot keeps the swing toe skimming the floor, the
+      heel strike and the toe pivot from counting (with the toes alone, real walking scores ~30 %);
+    - a transition skates if either foot skates; the ratio is skating transitions over all
+      transitions (summed over clips, so long clips weigh more).
+
+    A planted foot scores 0, a flat foot sliding along the floor for the whole clip 1. On the
+    Bandai-2 test originals real locomotion scores about 5 % and gestures 0 %.
+    """
+    clips = [positions] if torch.is_tensor(positions) else list(positions)
+    if not clips:
+        raise ValueError("foot_skating_ratio: no clips")
+    skating = total = 0
+    for p in clips:
+        s = skating_frames(p, fps, height, speed, spec)
+        skating += int(s.sum())
+        total += s.numel()
+    return skating / total
+
+
+def _contacts(feats: torch.Tensor, fps: float, source: str) -> torch.Tensor:
+    if feats.ndim != 2 or feats.shape[1] != FEATURES.dim:
+        raise ValueError(f"foot_contact_agreement: expected raw features (T, {FEATURES.dim}), got {tuple(feats.shape)}")
+    if source == "positions":
+        return foot_contacts(decode_positions(feats.double()), fps).bool()
+    if source == "features":
+        return feats[:, FEATURES.contacts] > 0.5
+    raise ValueError(f"foot_contact_agreement: source must be 'positions' or 'features', got {source!r}")
+
+
+def foot_contact_agreement(feats_a: torch.Tensor | Sequence[torch.Tensor], feats_b: torch.Tensor | Sequence[torch.Tensor],
+                           fps: float = CANONICAL.fps, source: str = "positions") -> float:
+    """Fraction of (frame, contact joint) pairs whose contact flags agree between two motions.
+
+    ``feats_a``, ``feats_b``: *raw* (un-normalised) features ``(T, D)``, or equal-length lists of
+    them (pooled over all frames). With ``source="positions"`` (default) the four flags are
+    recomputed from the motion itself: ``foot_contacts(decode_positions(feats), fps)`` (height and
+    speed thresholds of ``motioncore.representation``), so a model's own contact channel cannot
+    flatter it; ``source="features"`` reads the features' contact slice (> 0.5). Motions of
+    different lengths are compared over the shorter one's frames (transfer keeps the length).
+    Foot contact accuracy after Villegas et al. 2021, used for content preservation.
+    """
+    a_list = [feats_a] if torch.is_tensor(feats_a) else list(feats_a)
+    b_list = [feats_b] if torch.is_tensor(feats_b) else list(feats_b)
+    if len(a_list) != len(b_list) or not a_list:
+        raise ValueError(f"foot_contact_agreement: expected equal, non-empty lists, got {len(a_list)} and {len(b_list)}")
+    agree = total = 0
+    for a, b in zip(a_list, b_list):
+        t = min(a.shape[0], b.shape[0])
+        ca, cb = _contacts(a, fps, source)[:t], _contacts(b, fps, source)[:t]
+        agree += int((ca == cb).sum())
+        total += ca.numel()
+    return agree / total
