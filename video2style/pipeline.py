@@ -100,13 +100,25 @@ def elapsed(t0: float) -> str:
     return f"{time.time() - t0:.1f} s"
 
 
+def content_source(progress=print):
+    """Neutral content motions for style learning: the dataset cache if present, else the shipped bank."""
+    from transfer.content_bank import ContentBank
+    from transfer.dataset import MotionDataset
+    from video2style.paths import default_dataset_dir
+
+    data_dir = Path(os.environ.get("VIDEO2STYLE_DATA", default_dataset_dir()))
+    if (data_dir / "features.safetensors").is_file():
+        progress(f"      content motions: dataset cache {data_dir}")
+        return MotionDataset(data_dir, "train")
+    progress("      content motions: the bundled content bank (no dataset cache found)")
+    return ContentBank(weights_path("content_bank.safetensors"))
+
+
 def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
                config=None, joint_map: dict | None = None, progress=print) -> dict:
     """Learn a style from a video or BVH and save it to ``out_path``; returns a summary."""
     from transfer.apply import classify_caption
-    from transfer.dataset import MotionDataset
     from transfer.style import StyleConfig, learn_style
-    from video2style.paths import default_dataset_dir
 
     t0 = time.time()
     config = config or StyleConfig()
@@ -122,8 +134,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"[2/4] content by retrieval: {top[0][0]!r} (then {top[1][0]!r})")
     else:
         progress(f"[2/4] content given: {text!r}")
-    data_dir = Path(os.environ.get("VIDEO2STYLE_DATA", default_dataset_dir()))
-    dataset = MotionDataset(data_dir, "train")
+    dataset = content_source(progress)
     progress("[3/4] learning")
     style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
                               m.prior_path, progress=lambda s: progress(f"      {s}"))

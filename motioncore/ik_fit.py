@@ -1,0 +1,216 @@
+"""Joint positions -> joint rotations on a fixed skeleton (constant bone lengths).
+
+:func:`fit_positions` solves the rotations top-down so that every bone points from its
+joint's fitted position toward the target position of its child:
+
+* joints with several children (the canonical Hips and Chest) take the best rotation of
+  their child vectors onto the measured ones (Kabsch, :func:`motioncore.quat.fit_rotation`);
+* joints with one child swing the shortest way from a *reference local rotation* onto the
+  measured direction (:func:`motioncore.quat.between`), so the twist about the bone, which
+  positions cannot tell, is the reference's;
+* the upper segments of the knees and elbows (:data:`HINGES`) are then twisted about their
+  bone so that the lower segment bends about the hinge axis, as in the data;
+* leaves (Head, Hands, Toes) keep the reference local rotation unless given one.
+
+The reference pose (:data:`REFERENCE_LOCAL`) is the mean local rotation of each joint over
+the non-mirrored Bandai-Namco-2 training clips on the canonical skeleton. Its retargeted
+joints carry fixed twists (Spine +90 deg about Y, Chest -90 deg, UpperLeg_R ~166 deg, ...);
+fitting around them keeps the rotation features of fitted motions in the same convention as
+the training data (a plain shortest-arc fit would reproduce the positions but not those
+features). :func:`reference_local_rotations` recomputes the table from motions.
+
+With targets that come from FK of the same skeleton the positions are reproduced to float
+precision (see ``tests/lifting/test_pipeline_fit.py``).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+
+import torch
+
+from motioncore import quat
+from motioncore.kinematics import to_local
+from motioncore.motion import Motion
+from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
+
+# Mean local rotation (w, x, y, z) per canonical joint; Hips (the root) is unused.
+# From reference_local_rotations() over the non-mirrored bandai2 clips of the training split.
+REFERENCE_LOCAL: dict[str, tuple[float, float, float, float]] = {
+    "Hips": (1.0, 0.0, 0.0, 0.0),
+    "Spine": (0.7094, 0.0146, 0.7043, 0.0225),
+    "Chest": (0.7011, 0.0257, -0.7114, 0.0417),
+    "Neck": (0.9991, 0.0415, -0.0115, 0.0032),
+    "Head": (1.0, -0.0016, -0.0077, 0.0037),
+    "Shoulder_L": (0.6982, -0.6973, 0.115, 0.1142),
+    "UpperArm_L": (0.8565, -0.055, 0.4669, -0.2129),
+    "LowerArm_L": (0.9036, 0.1383, -0.0653, -0.4001),
+    "Hand_L": (0.9876, 0.0396, -0.1518, 0.0111),
+    "Shoulder_R": (0.702, 0.6986, -0.0768, 0.1151),
+    "UpperArm_R": (0.8619, -0.0184, 0.4563, -0.2206),
+    "LowerArm_R": (0.9291, 0.0168, -0.0118, -0.3693),
+    "Hand_R": (0.983, 0.0546, -0.173, -0.0285),
+    "UpperLeg_L": (0.9943, -0.0613, 0.0722, 0.049),
+    "LowerLeg_L": (0.9633, 0.2684, -0.0007, -0.0002),
+    "Foot_L": (0.9987, 0.0299, -0.0402, -0.0046),
+    "Toes_L": (0.9896, -0.1439, 0.0, -0.0005),
+    "UpperLeg_R": (0.1212, 0.0147, 0.9913, -0.0497),
+    "LowerLeg_R": (0.9671, -0.2544, 0.0002, 0.0),
+    "Foot_R": (0.3905, 0.9192, 0.034, -0.0372),
+    "Toes_R": (0.9889, 0.1485, -0.0004, 0.0005),
+}
+
+# Upper segment -> bend normal in its local frame: normalize(bone axis x lower-segment direction)
+# whenever the limb is bent. In the Bandai data these are exact hinges (median deviation < 0.001 deg).
+HINGES: dict[str, tuple[float, float, float]] = {
+    "UpperLeg_L": (1.0, 0.0, 0.0),
+    "UpperLeg_R": (-1.0, 0.0, 0.0),
+    "UpperArm_L": (0.0, 0.0, -1.0),
+    "UpperArm_R": (0.0, 0.0, -1.0),
+}
+
+# The hinge twist fades in between these bend angles (the plane of a straight limb is unknown).
+HINGE_BEND_DEG = (8.0, 25.0)
+
+
+def reference_local_rotations(motions: Iterable[Motion], skeleton: Skeleton = CANONICAL.skeleton) -> torch.Tensor:
+    """Mean local rotation ``(J, 4)`` of each joint over all frames of ``motions`` (the principal
+    eigenvector of the summed outer products, sign-independent)."""
+    acc = torch.zeros(skeleton.num_joints, 4, 4, dtype=torch.float64)
+    for m in motions:
+        q = m.lrot.double()
+        acc += torch.einsum("tji,tjk->jik", q, q)
+    if not acc.abs().sum() > 0:
+        raise ValueError("reference_local_rotations: expected at least one frame")
+    mean = torch.linalg.eigh(acc)[1][..., -1]
+    return (mean * torch.sign(mean[:, :1] + 1e-12)).float()
+
+
+def default_reference(skeleton: Skeleton = CANONICAL.skeleton) -> torch.Tensor:
+    """:data:`REFERENCE_LOCAL` as ``(J, 4)`` for the canonical skeleton, identity for other joints."""
+    ref = quat.identity(skeleton.num_joints)
+    for j, name in enumerate(skeleton.names):
+        if name in REFERENCE_LOCAL:
+            ref[j] = torch.tensor(REFERENCE_LOCAL[name])
+    return quat.normalize(ref)
+
+
+def _smoothstep(x: torch.Tensor, lo: float, hi: float) -> torch.Tensor:
+    t = ((x - lo) / (hi - lo)).clamp(0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _unit(v: torch.Tensor) -> torch.Tensor:
+    return torch.nn.functional.normalize(v, dim=-1, eps=1e-9)
+
+
+def fit_positions(
+    targets: torch.Tensor,
+    fps: float,
+    spec: CanonicalSpec = CANONICAL,
+    reference: torch.Tensor | None = None,
+    anchors: Mapping[int, Sequence[int]] | None = None,
+    hinges: Mapping[str, Sequence[float]] | None = None,
+    leaf_rotations: Mapping[int, torch.Tensor] | None = None,
+    relative: bool = True,
+) -> Motion:
+    """Target joint positions ``(T, J, 3)`` metres -> a :class:`Motion` on ``spec.skeleton``.
+
+    ``reference (J, 4)``: local rotations the single-child joints swing from (default
+    :func:`default_reference`). ``anchors``: for joints with several children, the descendant
+    joints whose directions the Kabsch fit matches (default: the children); descendants below a
+    child are placed with the reference rotations. ``hinges``: upper segment name -> bend normal
+    (default :data:`HINGES`; ``{}`` turns the hinge twist off). ``leaf_rotations``: joint index ->
+    global rotations ``(T, 4)`` for leaves (e.g. a head frame from face landmarks); other leaves
+    keep the reference local rotation. The root is placed at ``targets[:, 0]``.
+
+    ``relative=True`` points each bone along the direction between the *targets* of its two
+    joints (the measured angles are kept where the target proportions differ from the
+    skeleton's); ``False`` points it from the fitted joint toward the child's target (end joints
+    land nearer their targets). Targets from FK of the same skeleton give the same result.
+    Non-finite targets are not allowed (interpolate gaps first).
+    """
+    sk = spec.skeleton
+    j_count = sk.num_joints
+    if targets.ndim != 3 or targets.shape[1:] != (j_count, 3) or targets.shape[0] < 1:
+        raise ValueError(f"fit_positions: expected targets (T>=1, {j_count}, 3), got {tuple(targets.shape)}")
+    if not torch.isfinite(targets).all():
+        raise ValueError("fit_positions: targets contain NaN or inf; interpolate missing frames first")
+    x = targets.double()
+    t_count = x.shape[0]
+    ref = (default_reference(sk) if reference is None else reference).double()
+    offsets = sk.offsets.double()
+    hinges = HINGES if hinges is None else hinges
+    hinge_idx = {sk.index(n): torch.tensor(a, dtype=torch.float64) for n, a in hinges.items() if n in sk.names}
+    leaf_rotations = leaf_rotations or {}
+    children = [sk.children(j) for j in range(j_count)]
+    anchors = dict(anchors or {})
+
+    grot: list[torch.Tensor | None] = [None] * j_count
+    gpos: list[torch.Tensor | None] = [None] * j_count
+    gpos[0] = x[:, 0]
+    for j in range(j_count):
+        kids = children[j]
+        parent = sk.parents[j]
+        base = ref[j].expand(t_count, 4) if parent < 0 else quat.mul(grot[parent], ref[j].expand(t_count, 4))
+        if len(kids) > 1 or (parent < 0 and kids):
+            use = list(anchors.get(j, kids))
+            src = torch.stack([_reference_vector(sk, ref, j, d, offsets) for d in use])  # (N, 3) in j's frame
+            origin = x[:, j] if relative else gpos[j]
+            dst = torch.stack([x[:, d] - origin for d in use], dim=1)  # (T, N, 3)
+            dst = _unit(dst) * src.norm(dim=-1)[None, :, None]
+            g = quat.fit_rotation(src.expand(t_count, -1, -1), dst)
+        elif len(kids) == 1:
+            c = kids[0]
+            cur = quat.mul_vec(base, offsets[c].expand(t_count, 3))
+            g = quat.mul(quat.between(cur, x[:, c] - (x[:, j] if relative else gpos[j])), base)
+            if j in hinge_idx and len(children[c]) == 1:
+                gc = children[c][0]
+                lower = x[:, gc] - (x[:, c] if relative else gpos[j] + quat.mul_vec(g, offsets[c].expand(t_count, 3)))
+                g = _hinge_twist(g, offsets[c], lower, hinge_idx[j])
+        else:
+            g = leaf_rotations[j].double() if j in leaf_rotations else base
+        grot[j] = quat.normalize(g)
+        for c in kids:
+            gpos[c] = gpos[j] + quat.mul_vec(grot[j], offsets[c].expand(t_count, 3))
+
+    g_all = quat.unroll(torch.stack(grot, dim=1), dim=0)
+    lrot = to_local(g_all, sk.parents)
+    lrot = quat.unroll(lrot, dim=0)
+    lpos = offsets.expand(t_count, -1, -1).clone()
+    lpos[:, 0] = x[:, 0]
+    return Motion(sk, lrot.float(), lpos.float(), fps)
+
+
+def _reference_vector(sk: Skeleton, ref: torch.Tensor, j: int, d: int, offsets: torch.Tensor) -> torch.Tensor:
+    """Position of descendant ``d`` in joint ``j``'s frame with the reference rotations in between."""
+    chain = []
+    k = d
+    while k != j:
+        if k < 0:
+            raise ValueError(f"fit_positions: anchor {sk.names[d]} is not below {sk.names[j]}")
+        chain.append(k)
+        k = sk.parents[k]
+    rot = quat.identity(dtype=torch.float64)
+    pos = torch.zeros(3, dtype=torch.float64)
+    for k in reversed(chain):
+        pos = pos + quat.mul_vec(rot, offsets[k])
+        rot = quat.mul(rot, ref[k])
+    return pos
+
+
+def _hinge_twist(g: torch.Tensor, bone: torch.Tensor, lower: torch.Tensor, normal: torch.Tensor) -> torch.Tensor:
+    """Twist ``g (T, 4)`` of an upper segment about its ``bone`` offset so that the lower segment,
+    pointing along ``lower (T, 3)`` (global), bends about ``normal`` (local)."""
+    t_count = g.shape[0]
+    axis = _unit(bone)
+    u = quat.mul_vec(quat.inv(g), _unit(lower))  # lower direction, local
+    u_perp = u - (u @ axis)[:, None] * axis
+    bend = torch.asin(u_perp.norm(dim=-1).clamp(max=1.0))
+    bend = torch.where((u @ axis) < 0, math.pi - bend, bend)  # folded back past 90 deg
+    want = torch.cross(normal.expand(t_count, 3), axis.expand(t_count, 3), dim=-1)  # bend direction
+    psi = torch.atan2((axis * torch.cross(want, u_perp, dim=-1)).sum(-1), (want * u_perp).sum(-1))
+    lo, hi = HINGE_BEND_DEG
+    w = _smoothstep(torch.rad2deg(bend), lo, hi)
+    twist = quat.from_axis_angle(axis.expand(t_count, 3), w * psi)
+    return quat.mul(g, twist)

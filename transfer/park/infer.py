@@ -1,0 +1,119 @@
+"""Inference with a trained Park et al. stylizer on normalised canonical features ``(T, D)``.
+
+Style codes come from noise + domain (mapping network F) or from a reference motion + domain (style
+encoder E). Content of any length is stylised in ``config.window``-frame windows overlapping by a
+quarter window and crossfaded; clips shorter than a window (or not a multiple of 4 frames) are
+padded with their last frame and cropped back. Every output keeps the content's root trajectory:
+the root velocity slices ``FEATURES.root_rvel`` and ``FEATURES.root_lvel`` are overwritten with the
+content's, as the main method does (root height and everything else come from the network).
+"""
+from __future__ import annotations
+
+from itertools import combinations
+from pathlib import Path
+
+import torch
+from safetensors.torch import load_file
+
+from motioncore.representation import FEATURES, decode_positions
+from transfer.denoiser import load_config
+from transfer.park.networks import ParkConfig, ParkModel
+
+ROOT_SLICES = (FEATURES.root_rvel, FEATURES.root_lvel)
+
+
+def load_park(path: Path | str) -> ParkModel:
+    """G, E, F from safetensors (config in the metadata; nothing is unpickled), in eval mode."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with transfer.park.train.train_park")
+    model = ParkModel(load_config(path, ParkConfig))
+    model.load_state_dict(load_file(str(path)))
+    return model.eval()
+
+
+def _pad4(x: torch.Tensor, length: int | None = None) -> torch.Tensor:
+    """``(T, D)`` padded with its last frame to ``length`` (default: the next multiple of 4)."""
+    t = x.shape[0]
+    target = max(length or 0, -(-t // 4) * 4)
+    return torch.cat([x, x[-1:].expand(target - t, -1)]) if target > t else x
+
+
+@torch.no_grad()
+def code_from_noise(model: ParkModel, domain: str, seed: int, n: int = 1) -> torch.Tensor:
+    """``(n, style_dim)`` style codes ``F(z, domain)`` for ``z`` drawn from a generator seeded with ``seed``."""
+    z = torch.randn(n, model.config.latent_dim, generator=torch.Generator().manual_seed(seed))
+    return model.f(z, torch.full((n,), model.domain_index(domain), dtype=torch.long))
+
+
+@torch.no_grad()
+def code_from_reference(model: ParkModel, reference: torch.Tensor, domain: str) -> torch.Tensor:
+    """``(style_dim,)`` style code ``E_domain(reference)`` of a normalised reference motion ``(T', D)`` (whole clip)."""
+    if reference.ndim != 2 or reference.shape[1] != model.config.feature_dim:
+        raise ValueError(f"reference: expected (T, {model.config.feature_dim}), got {tuple(reference.shape)}")
+    y = torch.tensor([model.domain_index(domain)])
+    return model.e(_pad4(reference.float())[None], y)[0]
+
+
+@torch.no_grad()
+def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overlap: int | None = None) -> torch.Tensor:
+    """``G(content, code)`` over windows (overlap default: a quarter window) with crossfades; the content's root velocities are kept. -> ``(T, D)``."""
+    from transfer.apply import crossfade, window_starts
+
+    if content.ndim != 2 or content.shape[1] != model.config.feature_dim:
+        raise ValueError(f"content: expected (T, {model.config.feature_dim}), got {tuple(content.shape)}")
+    x, s = content.float(), code.reshape(1, -1).float()
+    n, window = x.shape[0], model.config.window
+    overlap = window // 4 if overlap is None else overlap
+    starts = window_starts(n, window, overlap)
+    chunks = []
+    for st in starts:
+        part = x[st:st + window]
+        chunks.append(model.g(_pad4(part)[None], s)[0, :part.shape[0]])
+    out = crossfade(chunks, starts, n) if len(chunks) > 1 else chunks[0].clone()
+    for sl in ROOT_SLICES:
+        out[:, sl] = x[:, sl]
+    return out
+
+
+def stylize_noise(model: ParkModel, content: torch.Tensor, domain: str, seed: int = 0, n_variants: int = 1) -> list[torch.Tensor]:
+    """``n_variants`` stylisations of ``content`` into ``domain``, one per noise draw (deterministic in ``seed``)."""
+    return [generate(model, content, c) for c in code_from_noise(model, domain, seed, n_variants)]
+
+
+def stylize_reference(model: ParkModel, content: torch.Tensor, reference: torch.Tensor, domain: str) -> torch.Tensor:
+    """``content`` in the style of ``reference``, read as a motion of ``domain``."""
+    return generate(model, content, code_from_reference(model, reference, domain))
+
+
+def mix(model: ParkModel, content: torch.Tensor, code_a: torch.Tensor, code_b: torch.Tensor, alpha: float) -> torch.Tensor:
+    """Stylise with the interpolated code ``(1 - alpha) code_a + alpha code_b`` (within or across domains)."""
+    return generate(model, content, torch.lerp(code_a.reshape(-1), code_b.reshape(-1), float(alpha)))
+
+
+def park_method(model: ParkModel, seed: int = 0):
+    """A :mod:`transfer.evaluation` method: the style example's code (E, domain = the style label) applied to the content.
+
+    ``seed`` seeds torch's global generator once per call; the reference path itself is deterministic.
+    """
+    def transfer(content: torch.Tensor, style: torch.Tensor, style_label: str, content_label: str) -> torch.Tensor:
+        torch.manual_seed(seed)
+        return stylize_reference(model, content, style, style_label)
+
+    return transfer
+
+
+def pairwise_diversity(outputs: list[torch.Tensor], mean: torch.Tensor | None = None, std: torch.Tensor | None = None) -> dict:
+    """Mean over pairs of outputs (same content and domain, different noise) of their distance.
+
+    ``feature_l1``: mean absolute difference of the normalised features; with ``mean``/``std`` also
+    ``position_m``: mean per-joint distance (metres) of the decoded positions (root path included).
+    """
+    if len(outputs) < 2:
+        raise ValueError("pairwise_diversity: need at least 2 outputs")
+    pairs = list(combinations(range(len(outputs)), 2))
+    out = {"feature_l1": sum(float((outputs[i] - outputs[j]).abs().mean()) for i, j in pairs) / len(pairs), "pairs": len(pairs)}
+    if mean is not None and std is not None:
+        pos = [decode_positions((o * std + mean).double()) for o in outputs]
+        out["position_m"] = sum(float((pos[i] - pos[j]).norm(dim=-1).mean()) for i, j in pairs) / len(pairs)
+    return out

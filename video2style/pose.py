@@ -1,0 +1,229 @@
+"""``video2style pose``: a video of one person -> a BVH on the canonical skeleton (+ a preview).
+
+The BVH keeps the video's frame rate and covers the frames where the person was tracked
+(see :mod:`lifting.pipeline`). The preview shows each video frame with the BlazePose
+landmarks drawn on it beside the fitted 3-D skeleton; its frames are decoded again one at a
+time, never held in memory. Both files are written to temporary names and renamed at the
+end, so a failure leaves neither.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from lifting.blazepose.tracker import PoseTracker
+from lifting.filtering import DEFAULT_CUTOFF_HZ
+from lifting.fit import DEFAULT_FOV_DEG
+from lifting.pipeline import LiftResult, Progress, _Reporter, lift_video
+from lifting.video import iter_frames
+from motioncore.bvh import BvhLayout, write_bvh
+from motioncore.render import Panel, render_frame
+from motioncore.skeleton import CANONICAL
+
+PREVIEW_HEIGHT = 480
+# BlazePose's landmark graph (MediaPipe POSE_CONNECTIONS), body part only (no face outline).
+CONNECTIONS = (
+    (11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (17, 19), (12, 14), (14, 16), (16, 18), (16, 20),
+    (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28), (27, 29), (28, 30),
+    (29, 31), (30, 32), (27, 31), (28, 32), (0, 7), (0, 8),
+)  # fmt: skip
+_LEFT, _RIGHT, _MID = (40, 40, 215), (200, 120, 20), (40, 200, 40)  # BGR, as motioncore.render
+
+
+def pose_file(
+    video: Path,
+    out_bvh: Path,
+    preview: Path | None = None,
+    cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
+    progress: Progress = True,
+    *,
+    fov_deg: float = DEFAULT_FOV_DEG,
+    trajectory: str = "auto",
+    tracker: PoseTracker | None = None,
+) -> dict:
+    """Lift ``video`` to ``out_bvh`` (canonical skeleton, centimetres, the video's fps) and, if
+    ``preview`` is given, write an mp4 of landmarks beside the fitted skeleton.
+
+    ``progress``: True for bars in frames, a callable taking a line, or None/False. Returns a
+    summary dict (frames, tracked span, timings, frames per second, paths). Raises ValueError
+    with a one-line message naming the file for unusable videos; nothing is written then.
+    """
+    video, out_bvh = Path(video), Path(out_bvh)
+    t0 = time.perf_counter()
+    lifted = lift_video(video, progress, cutoff_hz, tracker=tracker, fov_deg=fov_deg, trajectory=trajectory)
+    t1 = time.perf_counter()
+    tmp_preview = None
+    try:
+        if preview is not None:
+            tmp_preview = _write_preview(video, lifted, Path(preview), progress)
+        t2 = time.perf_counter()
+        write_bvh(out_bvh, lifted.motion, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+        if tmp_preview is not None:
+            try:
+                os.replace(tmp_preview, preview)
+            except OSError:
+                out_bvh.unlink(missing_ok=True)  # all or nothing
+                raise
+            tmp_preview = None
+    finally:
+        if tmp_preview is not None:
+            Path(tmp_preview).unlink(missing_ok=True)
+    t3 = time.perf_counter()
+    info = lifted.info
+    n = info["frames"]
+    return {
+        "video": str(video),
+        "bvh": str(out_bvh),
+        "preview": None if preview is None else str(preview),
+        "frames": n,
+        "video_fps": info["fps"],
+        "tracked_frames": int(info["found"]),
+        "span": (lifted.start, lifted.stop),
+        "bvh_frames": lifted.motion.num_frames,
+        "bvh_seconds": lifted.motion.duration,
+        "filled_frames": lifted.filled,
+        "trajectory": info["trajectory"],
+        "moving_ground": info["moving_ground"],
+        "contact_fraction": info["contact_fraction"],
+        "distance_m": info["distance_m"],
+        "camera_tilt_deg": info["camera_tilt_deg"],
+        "cutoff_hz": info["cutoff_hz"],
+        "seconds": t3 - t0,
+        "track_seconds": info.get("track_s", t1 - t0),
+        "fit_seconds": info.get("lift_s", 0.0),
+        "preview_seconds": (t2 - t1) if preview is not None else 0.0,
+        "fps": n / (t3 - t0),
+    }
+
+
+def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool) -> None:
+    """BlazePose's skeleton ``pts (33, 2)`` (pixels of the original frame) onto ``img`` in place."""
+    p = np.round(pts * scale * 16).astype(np.int64)
+    thick = max(2, img.shape[0] // 200)
+    for a, b in CONNECTIONS:
+        side = _LEFT if a % 2 and b % 2 and a > 10 else _RIGHT if a % 2 == 0 and b % 2 == 0 and a > 10 else _MID
+        colour = tuple(int(c * 0.5 + 64) for c in side) if faded else side
+        cv2.line(img, tuple(map(int, p[a])), tuple(map(int, p[b])), colour, thick, cv2.LINE_AA, 4)
+    for k in range(11, 33):
+        cv2.circle(img, tuple(map(int, p[k])), int((thick + 1) * 16), (255, 255, 255), -1, cv2.LINE_AA, 4)
+
+
+def _prefetch(video: Path, n: int, depth: int = 4):
+    """``(index, frame)`` of the first ``n`` frames, decoded one at a time by a helper thread
+    (OpenCV releases the GIL while decoding, so decoding overlaps the drawing); at most
+    ``depth`` frames wait in memory."""
+    frames: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    done = object()
+
+    def reader() -> None:
+        try:
+            for i, _, frame in iter_frames(video):
+                if i >= n or stop.is_set():
+                    break
+                frames.put((i, frame))
+        except Exception as exc:  # noqa: BLE001 - re-raised in the consumer
+            frames.put(exc)
+            return
+        frames.put(done)
+
+    thread = threading.Thread(target=reader, name="preview-decoder", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item = frames.get()
+            if item is done:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        while thread.is_alive():  # unblock a reader waiting on a full queue
+            try:
+                frames.get_nowait()
+            except queue.Empty:
+                thread.join(0.01)
+
+
+class _Writer:
+    """An mp4v ``cv2.VideoWriter`` fed by a helper thread (encoding overlaps the drawing)."""
+
+    def __init__(self, path: str, fps: float, size: tuple[int, int], depth: int = 4):
+        self.path = path
+        self.writer = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        if not self.writer.isOpened():
+            raise ValueError(f"{path}: OpenCV cannot open an mp4v video writer for the preview")
+        self.frames: queue.Queue = queue.Queue(maxsize=depth)
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, name="preview-encoder", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while (frame := self.frames.get()) is not None:
+            if self.error is None:
+                try:
+                    self.writer.write(frame)
+                except Exception as exc:  # noqa: BLE001 - re-raised by write() or close()
+                    self.error = exc
+
+    def write(self, frame: np.ndarray) -> None:
+        if self.error is not None:
+            raise self.error
+        self.frames.put(frame)
+
+    def close(self, abort: bool = False) -> None:
+        self.frames.put(None)
+        self.thread.join()
+        self.writer.release()
+        if self.error is not None and not abort:
+            raise self.error
+
+
+def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress) -> str:
+    """Render the preview to a temporary file beside ``out``; returns its path (the caller renames)."""
+    tr = lifted.track
+    height = PREVIEW_HEIGHT
+    scale = height / tr.height
+    width = round(tr.width * scale / 2) * 2
+    n = len(tr.found)
+    sk = CANONICAL.skeleton
+    positions = np.full((n, sk.num_joints, 3), np.nan, np.float32)
+    positions[lifted.start:lifted.stop] = lifted.motion.global_positions().numpy()
+    panel = Panel(positions, sk.parents, "fitted skeleton", names=sk.names)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".mp4")
+    os.close(fd)
+    size = (width + height, height)
+    writer = None
+    bar = _Reporter(progress, n, f"{out.name}: preview")
+    try:
+        writer = _Writer(tmp, float(tr.fps), size)
+        for i, frame in _prefetch(video, n):
+            left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
+            inside = lifted.start <= i < lifted.stop
+            if np.isfinite(tr.image[i]).all():
+                _draw_landmarks(left, tr.image[i, :, :2], scale, faded=not inside)
+            label = "BlazePose" if tr.found[i] else ("no person (interpolated)" if inside else "no person")
+            cv2.putText(left, label, (8, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 3, cv2.LINE_AA)
+            cv2.putText(left, label, (8, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (20, 20, 20), 1, cv2.LINE_AA)
+            right = render_frame([panel], i, (height, height), tr.fps)
+            writer.write(np.concatenate([left, right], axis=1))
+            bar.update()
+        writer.close()
+    except BaseException:
+        if writer is not None:
+            writer.close(abort=True)
+        bar.close()
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    bar.close()
+    return tmp
