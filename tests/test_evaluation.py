@@ -102,3 +102,17 @@ def test_real_cache_protocol_shape():
     recs = MotionDataset(REAL_CACHE, split=None).records
     assert len(protocol_clips(recs)) == 420
     assert len(select_protocol(recs, quick=False)) == 3780
+
+
+def test_examples_pool_limits_distinct_style_examples():
+    recs = _bandai2_like_records()
+    items = select_protocol(recs, quick=True, seed=0, examples_pool=1)
+    assert len(items) == 120
+    per_style = {}
+    for it in items:
+        per_style.setdefault(it.target_style, set()).add(it.style_index)
+    assert set(per_style) == set(STYLES) and all(len(v) == 1 for v in per_style.values())
+    full = select_protocol(recs, quick=False, seed=0, examples_pool=3)
+    assert all(len({it.style_index for it in full if it.target_style == s}) == 3 for s in STYLES)
+    with pytest.raises(ValueError, match="examples_pool"):
+        select_protocol(recs, quick=True, examples_pool=0)

@@ -60,8 +60,13 @@ def protocol_clips(records: Sequence[ClipRecord]) -> list[int]:
 
 
 def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: int = 0,
-                    per_content: int | None = None, examples_per_style: int | None = None) -> list[Transfer]:
-    """The seeded list of transfers (see the module doc); counts default to ``QUICK`` or ``FULL``."""
+                    per_content: int | None = None, examples_per_style: int | None = None,
+                    examples_pool: int | None = None) -> list[Transfer]:
+    """The seeded list of transfers (see the module doc); counts default to ``QUICK`` or ``FULL``.
+
+    ``examples_pool``: draw each style's examples from a fixed seeded subset of this many of its
+    clips (for methods that learn per example; default: all of the style's test originals).
+    """
     sizes = QUICK if quick else FULL
     per_content = sizes["per_content"] if per_content is None else per_content
     examples = sizes["examples_per_style"] if examples_per_style is None else examples_per_style
@@ -76,6 +81,11 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
     for i in pool:
         by_style.setdefault(records[i].style, []).append(i)
     styles = [s for s in STYLES if s in by_style]
+    if examples_pool is not None:
+        if examples_pool < 1:
+            raise ValueError(f"select_protocol: expected examples_pool >= 1, got {examples_pool}")
+        pool_rng = random.Random(seed + 1)
+        by_style = {s: sorted(pool_rng.sample(v, min(examples_pool, len(v)))) for s, v in by_style.items()}
     contents = [c for c in BANDAI2_CONTENTS if any(k[0] == c for k in cells)]
 
     items = []
@@ -136,7 +146,8 @@ class _Scorer:
 
 def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True, seed: int = 0,
                  content_classifier: Path | None = None, style_classifier: Path | None = None,
-                 per_content: int | None = None, examples_per_style: int | None = None, progress: bool = True) -> list[dict]:
+                 per_content: int | None = None, examples_per_style: int | None = None, progress: bool = True,
+                 examples_pool: int | None = None) -> list[dict]:
     """Run every method on the protocol's transfers; returns one row per method plus the real-data reference row first.
 
     Row keys: ``method``, ``transfers``, ``fmd``, ``cra``, ``sra``, ``skating``,
@@ -147,7 +158,7 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
     style_clf = load_classifier(style_classifier or default_weights("style"))
     fps = 20.0
     scorer = _Scorer(content_clf, style_clf, fps)
-    items = select_protocol(data.records, quick, seed, per_content, examples_per_style)
+    items = select_protocol(data.records, quick, seed, per_content, examples_per_style, examples_pool)
 
     real_idx = protocol_clips(data.records)
     real_raw = [data.clip(i, normalized=False) for i in real_idx]

@@ -45,6 +45,7 @@ class StyleConfig:
     content_batch: int = 8
     window: int = 80
     seed: int = 0
+    pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
 
 
 @dataclass
@@ -130,10 +131,12 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     neutral_text = content if content.startswith("a person") else caption(content, None)
     say = progress or (lambda msg: None)
 
-    say("generating the style-neutral pair")
-    with torch.no_grad():
-        text_n = text_encoder.encode([neutral_text])
-        pair = neutralize(prior, scheduler, example[None], text_n, config, gen)[0]
+    if config.pair_generation:
+        say("generating the style-neutral pair")
+        with torch.no_grad():
+            pair = neutralize(prior, scheduler, example[None], text_encoder.encode([neutral_text]), config, gen)[0]
+    else:
+        pair = example.clone()
 
     say("fine-tuning the style model")
     model = copy.deepcopy(prior)

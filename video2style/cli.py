@@ -10,12 +10,15 @@ from pathlib import Path
 
 EXAMPLES = """examples:
   video2style demo                                   # everything on the bundled samples
+  video2style pose walk.mp4 -o walk.bvh --preview walk_pose.mp4
   video2style learn old_man.mp4 --style old -o old.v2s
   video2style apply old.v2s library/ -o out/
+  video2style apply --method stgcn --domain elderly library/ -o out/ --variants 3
   video2style batch videos/ --content library/ -o results/
   video2style preview walk.bvh other.bvh -o cmp.mp4  # look at clips side by side
   video2style dataset --bandai2 bandai2.tar.xz --bandai1 bandai1-seen-styles.tar.xz
   video2style train-prior --max-minutes 60           # resumable; run again to continue
+  video2style evaluate --quick                       # Bandai-2 protocol: FMD, CRA, SRA, skating
 """
 
 
@@ -111,27 +114,90 @@ def _bvh_inputs(paths: list[Path]) -> list[Path]:
 
 def cmd_apply(args) -> None:
     from motioncore.retarget import load_joint_map
-    from transfer.apply import strength_to_step
-    from transfer.style import Style, style_model
-    from video2style.pipeline import apply_file, load_models
 
-    step = strength_to_step(args.strength)
-    style = Style.load(args.style)
-    model = style_model(load_models().prior, style)
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    if args.method == "stgcn":
+        run_item, files = _stgcn_runner(args, joint_map)
+    else:
+        run_item, files = _diffusion_runner(args, joint_map)
     failed = 0
-    files = _bvh_inputs(args.inputs)
     for i, path in enumerate(files, 1):
         try:
-            info = apply_file(style, model, path, args.output, step, args.seed, args.neutralize, joint_map, not args.no_preview)
+            info = run_item(path)
         except (ValueError, FileNotFoundError, OSError) as e:
             failed += 1
             print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
             continue
-        extra = f", neutralised ({info['detected']})" if info["neutralized"] else ""
-        print(f"[{i}/{len(files)}] {path} -> {info['output']} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra})")
+        extra = f", neutralised ({info['detected']})" if info.get("neutralized") else ""
+        outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
+        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra})")
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+
+
+def _diffusion_runner(args, joint_map):
+    from transfer.apply import strength_to_step
+    from transfer.style import Style, style_model
+    from video2style.pipeline import apply_file, load_models
+
+    if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
+        raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method stgcn --domain D)")
+    for flag in ("domain", "reference", "mix"):
+        if getattr(args, flag) is not None:
+            raise CliError(f"apply: --{flag} belongs to --method stgcn")
+    step = strength_to_step(args.strength)
+    style = Style.load(args.style)
+    model = style_model(load_models().prior, style)
+    files = _bvh_inputs(args.inputs)
+    return (lambda path: apply_file(style, model, path, args.output, step, args.seed, args.neutralize, joint_map,
+                                    not args.no_preview)), files
+
+
+def _stgcn_runner(args, joint_map):
+    from video2style.stgcn import StgcnRequest, apply_stgcn_file, load_stylizer
+
+    if args.domain is None:
+        raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")
+    inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
+    model = load_stylizer(args.weights)
+    request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
+    request.validate(list(model.config.domains))
+    files = _bvh_inputs(inputs)
+    return (lambda path: apply_stgcn_file(model, path, args.output, request, joint_map, not args.no_preview)), files
+
+
+def cmd_pose(args) -> None:
+    from video2style.pose import pose_file
+
+    if args.trajectory not in ("auto", "contacts", "camera"):
+        raise CliError(f"pose: --trajectory expected auto, contacts or camera, got {args.trajectory!r}")
+    out = args.output or args.video.with_suffix(".bvh")
+    info = pose_file(args.video, out, args.preview, args.cutoff if args.cutoff > 0 else None, progress=not args.quiet,
+                     fov_deg=args.fov, trajectory=args.trajectory)
+    print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
+          f"{info['tracked_frames']}/{info['frames']} frames, trajectory from {info['trajectory']}, "
+          f"{info['fps']:.1f} frames/s" + (f"; preview {info['preview']}" if info["preview"] else ""))
+
+
+def cmd_train_park(args) -> None:
+    import torch
+
+    from transfer.park.train import ParkTrainConfig, train_park
+
+    explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed") if getattr(args, k) is not None}
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    card = train_park(args.data, args.out, ParkTrainConfig(**explicit), args.max_minutes, args.max_steps,
+                      args.weights, explicit, progress=not args.quiet)
+    print(f"step {card.get('steps', '?')}; weights: {args.weights or 'transfer/weights/park_stylizer.safetensors'}")
+
+
+def cmd_evaluate(args) -> None:
+    from video2style.evaluate import evaluate
+
+    for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
+                         learn_seconds=args.learn_seconds, examples_pool=args.examples_pool):
+        print(line)
 
 
 def cmd_batch(args) -> None:
@@ -192,18 +258,41 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name (BVH input)")
     lr.set_defaults(func=cmd_learn)
 
-    ap = sub.add_parser("apply", help="apply a learned style to BVH clips",
-                        epilog="example: video2style apply old.v2s library/ -o out/ --strength 0.6")
-    ap.add_argument("style", type=Path, help="style file from `video2style learn`")
-    ap.add_argument("inputs", nargs="+", type=Path, help="BVH files or folders")
+    ap = sub.add_parser("apply", help="apply a learned style (or Park et al.'s ST-GCN stylizer) to BVH clips",
+                        epilog="examples:\n  video2style apply old.v2s library/ -o out/ --strength 0.6\n"
+                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --variants 4\n"
+                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --reference old.bvh\n"
+                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --mix exhausted",
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("style", type=Path, nargs="?", help="style file from `video2style learn` (not with --method stgcn)")
+    ap.add_argument("inputs", nargs="*", type=Path, help="BVH files or folders")
     ap.add_argument("-o", "--output", type=Path, required=True, help="output folder")
+    ap.add_argument("--method", choices=["diffusion", "stgcn"], default="diffusion",
+                    help="diffusion: a learned style file (default); stgcn: Park et al. 2021, style from a domain")
     ap.add_argument("--strength", type=float, default=0.5, help="0..1, how much of the content is redrawn (default: %(default)s = K 300)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                     help="neutralise styled content first (auto: when the motion encoder recognises a style)")
+    ap.add_argument("--domain", help="stgcn: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
+    ap.add_argument("--variants", type=int, default=1, help="stgcn: outputs from this many noise draws (seeds seed, seed+1, ...)")
+    ap.add_argument("--reference", type=Path, help="stgcn: take the style code from this clip (read as --domain)")
+    ap.add_argument("--mix", help="stgcn: interpolate towards another domain or another seed (integer)")
+    ap.add_argument("--mix-steps", type=int, default=5, help="stgcn: interpolation outputs, ends included (default: %(default)s)")
+    ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
     ap.add_argument("--no-preview", action="store_true")
     ap.add_argument("--joint-map", type=Path)
     ap.set_defaults(func=cmd_apply)
+
+    po = sub.add_parser("pose", help="video of one person -> BVH on the canonical skeleton (+ preview)",
+                        epilog="example: video2style pose walk.mp4 -o walk.bvh --preview walk_pose.mp4")
+    po.add_argument("video", type=Path)
+    po.add_argument("-o", "--output", type=Path, help="output .bvh (default: the video's name with .bvh)")
+    po.add_argument("--preview", type=Path, help="also write an mp4: landmarks on the frames beside the fitted skeleton")
+    po.add_argument("--cutoff", type=float, default=3.0, help="Butterworth low-pass cutoff in Hz, 0 = off (default: %(default)s)")
+    po.add_argument("--fov", type=float, default=60.0, help="assumed horizontal field of view in degrees (default: %(default)s)")
+    po.add_argument("--trajectory", default="auto", help="root path from foot contacts, the camera model, or auto (default)")
+    po.add_argument("-q", "--quiet", action="store_true")
+    po.set_defaults(func=cmd_pose)
 
     b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
                        epilog="example: video2style batch videos/ --content library/ -o results/")
@@ -237,6 +326,31 @@ def build_parser() -> argparse.ArgumentParser:
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
     e.add_argument("-q", "--quiet", action="store_true")
     e.set_defaults(func=cmd_train_encoder)
+
+    tp = sub.add_parser("train-park", help="train (or resume) Park et al.'s ST-GCN stylizer on the Bandai-2 styles")
+    tp.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
+    tp.add_argument("--out", type=Path, default=cache_dir() / "runs" / "park", help="run folder (default: %(default)s)")
+    tp.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/park_stylizer.safetensors)")
+    tp.add_argument("--max-minutes", type=_positive, default=60.0)
+    tp.add_argument("--max-steps", type=int, default=100_000)
+    tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
+    for name in ("batch_size", "window", "seed"):
+        tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
+                        help="default: see transfer.park.train.ParkTrainConfig; a resumed run keeps its own")
+    tp.add_argument("-q", "--quiet", action="store_true")
+    tp.set_defaults(func=cmd_train_park)
+
+    ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
+                        epilog="example: video2style evaluate --quick --methods identity stgcn ours")
+    ev.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
+    ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md and rows.json")
+    ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
+    ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"],
+                    help="identity, stgcn, ours, ours-no-ls, ours-no-pair, ours-k150, ours-k600 (default: %(default)s)")
+    ev.add_argument("--learn-seconds", type=_positive, default=60.0, help="fine-tuning budget per style example (default: %(default)s)")
+    ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default: 1 quick, all full)")
+    ev.add_argument("--seed", type=int, default=0)
+    ev.set_defaults(func=cmd_evaluate)
     return p
 
 

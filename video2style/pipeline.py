@@ -164,19 +164,31 @@ def apply_file(style, model, path: Path, out_dir: Path, step: int, seed: int = 0
         if neutralize == "always" or style_label != "normal":
             neutral_text = m.text_encoder.encode([content_caption(content)])
     result = apply_style_motion(model, m.prior, clip.canonical, m.mean, m.std, config, step, seed, neutral_text)
-    out_dir = Path(out_dir)
-    out_bvh = write_result(clip, result, out_dir / f"{Path(path).stem}.bvh")
-    info = {"input": str(path), "output": str(out_bvh), "frames": clip.canonical.num_frames, "detected": detected,
+    ex = example_motion(style)
+    extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
+    info = {"input": str(path), "frames": clip.canonical.num_frames, "detected": detected,
             "neutralized": neutral_text is not None, "seconds_transfer": time.time() - t0}
+    info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
+    info["seconds"] = time.time() - t0
+    return info
+
+
+def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
+                  preview: bool = True) -> dict:
+    """Write each ``(result, tag)`` as BVH on the clip's skeleton (``<name>.bvh`` for one result, else
+    ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths."""
+    stem = Path(clip.path).stem
+    outputs = []
+    for motion, tag in results:
+        name = f"{stem}.bvh" if len(results) == 1 else f"{stem}_{tag}.bvh"
+        outputs.append(str(write_result(clip, motion, Path(out_dir) / name)))
+    info = {"output": outputs[0] if len(outputs) == 1 else outputs}
     if preview:
         from motioncore.render import Panel, render_video
 
         sk = CANONICAL.skeleton
-        panels = [Panel(clip.canonical.global_positions(), sk.parents, "content", names=sk.names)]
-        ex = example_motion(style)
-        if ex is not None:
-            panels.append(Panel(ex.global_positions(), sk.parents, f"style: {style.meta.get('style', '')}", names=sk.names))
-        panels.append(Panel(result.global_positions(), sk.parents, "result", names=sk.names))
-        info["preview"] = str(render_video(panels, out_dir / f"{Path(path).stem}_preview.mp4", CANONICAL.fps, size=(360, 360), progress=False))
-    info["seconds"] = time.time() - t0
+        panels = [Panel(m.global_positions(), sk.parents, label, names=sk.names)
+                  for m, label in [(clip.canonical, "content"), *extra, *results]]
+        size = (360, 360) if len(panels) <= 4 else (280, 280)
+        info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info
