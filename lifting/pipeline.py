@@ -41,7 +41,12 @@ import torch
 
 from lifting.blazepose.landmarks import POSE_LANDMARKS
 from lifting.blazepose.tracker import PoseFrame, PoseTracker, TrackResult
-from lifting.filtering import DEFAULT_CUTOFF_HZ, interpolate_gaps, longest_segment, lowpass
+from lifting.filtering import (
+    DEFAULT_CUTOFF_HZ,
+    interpolate_gaps,
+    longest_segment,
+    lowpass,
+)
 from lifting.fit import (
     ANCHORS,
     CAMERA_JOINTS,

@@ -50,7 +50,7 @@ def resample(motion: Motion, fps: float) -> Motion:
     """Resample to ``fps`` by slerp (rotations) and lerp (positions) over the same duration."""
     if abs(fps - motion.fps) < 1e-9:
         return motion
-    n_out = max(1, int(round((motion.num_frames - 1) * fps / motion.fps)) + 1)
+    n_out = max(1, round((motion.num_frames - 1) * fps / motion.fps) + 1)
     t = torch.arange(n_out, dtype=torch.float64) * (motion.fps / fps)
     t = t.clamp(max=motion.num_frames - 1)
     i0 = t.floor().long().clamp(max=motion.num_frames - 1)

@@ -161,7 +161,7 @@ def make_rig(
             w = torch.ones(len(kids), dtype=torch.float64)
             world[s] = quat.mul(quat.fit_rotation(src[None], dst[None], w[None])[0], b)
     tpose = torch.stack(world).float()
-    (hl, kl, al) = spec.legs[0]
+    (hl, _kl, al) = spec.legs[0]
     leg_canon = _chain_length(canon, hl, al)
     leg_src = _chain_length(skeleton, mapping[hl], mapping[al])
     if leg_src <= 0:

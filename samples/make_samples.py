@@ -1,58 +1,52 @@
-"""Regenerate the project-made sample clips in this folder (no external data).
+"""Regenerate the project-made demo inputs in this folder (no external data; needs the shipped prior).
 
-    python samples/make_samples.py
+    python samples/make_samples.py            # content clips + the style video
+    python samples/make_samples.py --seed 3   # other draws
+
+Content clips are text-to-motion samples of the project's diffusion prior (neutral style),
+written as BVH on the canonical skeleton in centimetres at 30 fps. The style video is a prior
+sample of an elderly-style walk rendered by the project's humanoid renderer
+(:mod:`lifting.render_humanoid`), which the BlazePose tracker reads like a filmed person.
 """
 from __future__ import annotations
 
-import math
+import argparse
 from pathlib import Path
 
 import torch
 
-from motioncore import quat
 from motioncore.bvh import BvhLayout, write_bvh
-from motioncore.motion import Motion
-from motioncore.retarget import place_on_floor
+from motioncore.motion import resample
 from motioncore.skeleton import CANONICAL
+from video2style.pipeline import prior_samples
 
 HERE = Path(__file__).resolve().parent
+CONTENT = {  # file stem -> caption
+    "walk_prior": "a person walks",
+    "run_prior": "a person runs",
+    "walk_turn_left_prior": "a person walks and turns left",
+    "wave_right_hand_prior": "a person waves the right hand",
+}
+STYLE_VIDEO = ("elderly", "a person walks, elderly style")
 
 
-def procedural_walk(seconds: float = 6.0, fps: float = 30.0, speed: float = 1.3, cadence: float = 0.95, turn: float = 0.0) -> Motion:
-    """A simple sinusoidal walk cycle on the canonical skeleton (cadence: strides per second)."""
-    sk = CANONICAL.skeleton
-    n = int(seconds * fps)
-    t = torch.arange(n, dtype=torch.float32) / fps
-    ph = 2 * math.pi * cadence * t
-    euler = torch.zeros(n, sk.num_joints, 3)  # (x, y, z) angles, applied as ZXY below
-    ix = sk.index
-    for side, sign in (("L", 1.0), ("R", -1.0)):
-        s = torch.sin(ph + (0 if side == "L" else math.pi))
-        c = torch.cos(ph + (0 if side == "L" else math.pi))
-        euler[:, ix(f"UpperLeg_{side}"), 0] = -0.45 * s  # flexion (x axis; negative swings the leg forward)
-        euler[:, ix(f"LowerLeg_{side}"), 0] = 0.6 * torch.clamp(c, min=0) + 0.05
-        euler[:, ix(f"Foot_{side}"), 0] = -0.2 * s
-        euler[:, ix(f"UpperArm_{side}"), 2] = -sign * 1.25  # arms down from the T-pose
-        euler[:, ix(f"UpperArm_{side}"), 0] = 0.35 * s
-        euler[:, ix(f"LowerArm_{side}"), 1] = sign * (0.3 + 0.15 * (1 + s))
-    euler[:, ix("Spine"), 1] = 0.08 * torch.sin(ph)
-    euler[:, ix("Chest"), 1] = -0.12 * torch.sin(ph)
-    lrot = quat.from_euler(euler[..., [2, 0, 1]], "ZXY")
-    heading = turn * t
-    lrot[:, 0] = quat.mul(quat.from_yaw(heading), lrot[:, 0])
-    step = torch.stack([torch.sin(heading), torch.zeros(n), torch.cos(heading)], -1) * speed / fps
-    root = torch.cumsum(step, 0)
-    root[:, 1] = 0.92 + 0.02 * torch.cos(2 * ph)
-    lpos = sk.offsets.expand(n, -1, -1).clone()
-    lpos[:, 0] = root
-    return place_on_floor(Motion(sk, lrot, lpos, fps))
+def main(argv: list[str] | None = None) -> None:
+    from lifting.render_humanoid import frame_camera, write_humanoid_video
 
-
-def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=HERE)
+    args = ap.parse_args(argv)
+    torch.manual_seed(args.seed)
+    names = [*CONTENT, STYLE_VIDEO[0]]
+    motions = prior_samples([*CONTENT.values(), STYLE_VIDEO[1]], seed=args.seed)
     layout = BvhLayout.default(CANONICAL.skeleton, "ZXY", scale=0.01)  # centimetres, like most tools
-    write_bvh(HERE / "walk_procedural.bvh", procedural_walk(), layout)
-    write_bvh(HERE / "walk_turn_procedural.bvh", procedural_walk(turn=0.35), layout)
-    print("wrote", ", ".join(p.name for p in sorted(HERE.glob("*.bvh"))))
+    for name, motion in zip(names[:-1], motions[:-1]):
+        write_bvh(args.out / f"{name}.bvh", resample(motion, 30.0), layout)
+    style = resample(motions[-1], 30.0)
+    cam = frame_camera(style.global_positions().numpy(), azimuth_deg=35.0, width=640, height=480)
+    write_humanoid_video(style, cam, args.out / f"{STYLE_VIDEO[0]}.mp4")
+    print("wrote", ", ".join(p.name for p in sorted(args.out.glob("*")) if p.suffix in (".bvh", ".mp4")))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from motioncore import quat
-from motioncore.bvh import BvhError, BvhLayout, format_bvh, parse_bvh, read_bvh, write_bvh
+from motioncore.bvh import (
+    BvhError,
+    BvhLayout,
+    format_bvh,
+    parse_bvh,
+    read_bvh,
+    write_bvh,
+)
 from motioncore.motion import Motion
 from tests.helpers import bandai_like_skeleton, cmu_like_skeleton, random_motion
 

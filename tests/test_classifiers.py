@@ -8,8 +8,15 @@ from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.classifiers import (
-    ClassifierConfig, ClassifierTrainConfig, MotionClassifier, default_weights, labelled_clips, load_classifier, read_card,
-    run_batched, train_classifier,
+    ClassifierConfig,
+    ClassifierTrainConfig,
+    MotionClassifier,
+    default_weights,
+    labelled_clips,
+    load_classifier,
+    read_card,
+    run_batched,
+    train_classifier,
 )
 from transfer.metrics import recognition_accuracy
 

@@ -54,7 +54,7 @@ def test_build_dataset_from_archive(tmp_path):
     assert records[0]["length"] == 30  # 1.5 s at 20 fps
 
     ds = MotionDataset(tmp_path / "cache", "train")
-    x, valid, idx = ds.sample_windows(5, 40, torch.Generator().manual_seed(0))
+    x, valid, _idx = ds.sample_windows(5, 40, torch.Generator().manual_seed(0))
     assert x.shape == (5, 40, FEATURES.dim) and valid[:, :30].all() and not valid[:, 30:].any()
     assert abs(float(ds.normalize(ds.features).mean())) < 0.5
 

@@ -9,7 +9,13 @@ from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.classifiers import ClassifierConfig, MotionClassifier
 from transfer.dataset import ClipRecord, MotionDataset
 from transfer.denoiser import save_model
-from transfer.evaluation import format_table, identity_transfer, protocol_clips, run_protocol, select_protocol
+from transfer.evaluation import (
+    format_table,
+    identity_transfer,
+    protocol_clips,
+    run_protocol,
+    select_protocol,
+)
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 

@@ -9,7 +9,12 @@ from motioncore.representation import FEATURES, encode
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from transfer.metrics import (
-    foot_contact_agreement, foot_skating_ratio, frechet_distance, gaussian_frechet, recognition_accuracy, skating_frames,
+    foot_contact_agreement,
+    foot_skating_ratio,
+    frechet_distance,
+    gaussian_frechet,
+    recognition_accuracy,
+    skating_frames,
 )
 
 
@@ -85,7 +90,7 @@ def test_skating_needs_the_whole_foot_on_the_floor():
     slide = torch.zeros(t, 3)
     slide[:, 0] = torch.arange(t) * 1.0 / fps
     pos = _feet_positions(slide)
-    foot_l, toes_l, foot_r, toes_r = CANONICAL.feet
+    foot_l, _toes_l, foot_r, toes_r = CANONICAL.feet
     heel_up = pos.clone()
     heel_up[1::2, [foot_l, foot_r], 1] += 0.1  # ankles lifted every other frame: the toes alone slide
     assert foot_skating_ratio(heel_up, fps) == 0.0

@@ -2,7 +2,14 @@ import torch
 
 from motioncore import quat
 from motioncore.motion import mirror, resample
-from motioncore.representation import FEATURES, decode, decode_positions, encode, facing_angle, foot_contacts
+from motioncore.representation import (
+    FEATURES,
+    decode,
+    decode_positions,
+    encode,
+    facing_angle,
+    foot_contacts,
+)
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 

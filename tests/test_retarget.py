@@ -5,8 +5,14 @@ import pytest
 import torch
 
 from motioncore.bvh import read_bvh
-from motioncore.motion import Motion
-from motioncore.retarget import RetargetError, from_canonical, load_joint_map, make_rig, match_joint_map, to_canonical
+from motioncore.retarget import (
+    RetargetError,
+    from_canonical,
+    load_joint_map,
+    make_rig,
+    match_joint_map,
+    to_canonical,
+)
 from motioncore.skeleton import CANONICAL, Skeleton
 from tests.helpers import bandai_like_skeleton, cmu_like_skeleton, random_motion
 

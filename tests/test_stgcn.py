@@ -4,8 +4,17 @@ import torch
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
 from transfer.stgcn import (
-    GRAPH_CHANNELS, GraphConv, STGCNBlock, canonical_adjacency, canonical_labels, features_to_graph, graph_pool,
-    graph_to_features, graph_unpool, partition_labels, pooled_graph,
+    GRAPH_CHANNELS,
+    GraphConv,
+    STGCNBlock,
+    canonical_adjacency,
+    canonical_labels,
+    features_to_graph,
+    graph_pool,
+    graph_to_features,
+    graph_unpool,
+    partition_labels,
+    pooled_graph,
 )
 
 NAMES = CANONICAL.skeleton.names

@@ -5,7 +5,12 @@ from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
-from transfer.apply import apply_style_features, crossfade, strength_to_step, window_starts
+from transfer.apply import (
+    apply_style_features,
+    crossfade,
+    strength_to_step,
+    window_starts,
+)
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state, set_strength
 from transfer.style import Style, StyleConfig, style_model

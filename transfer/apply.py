@@ -66,12 +66,10 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     gen = torch.Generator().manual_seed(seed)
     starts = window_starts(x.shape[0], window, overlap)
-    chunks = []
-    for s in starts:
-        part = x[None, s:s + window]
-        if neutral_text is not None:
-            part = neutralize(prior, scheduler, part, neutral_text, config, gen)
-        chunks.append(stylize(model, scheduler, part, config, gen, step=step)[0])
+    parts = torch.stack([x[s:s + window] for s in starts])  # (W, L, D): all windows denoised as one batch
+    if neutral_text is not None:
+        parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen)
+    chunks = list(stylize(model, scheduler, parts, config, gen, step=step))
     return crossfade(chunks, starts, x.shape[0])
 
 

@@ -34,7 +34,14 @@ from motioncore.representation import FEATURES
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.dataset import MotionDataset
 from transfer.denoiser import load_config, save_model
-from transfer.stgcn import GRAPH_CHANNELS, STGCNBlock, canonical_adjacency, features_to_graph, masked_mean, valid_to_mask
+from transfer.stgcn import (
+    GRAPH_CHANNELS,
+    STGCNBlock,
+    canonical_adjacency,
+    features_to_graph,
+    masked_mean,
+    valid_to_mask,
+)
 from transfer.training import Trainer
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"

@@ -44,7 +44,7 @@ class Denoiser(nn.Module):
         self.out = nn.Linear(c.width, c.feature_dim)
 
     def forward(self, x_t, t, text=None, valid=None, drop=None):
-        b, n, d = x_t.shape
+        b, _, d = x_t.shape
         if d != self.config.feature_dim:
             raise ValueError(f"Denoiser: expected x_t (B, T, {self.config.feature_dim}), got {tuple(x_t.shape)}")
         cond = self.time_mlp(sinusoidal(torch.as_tensor(t, device=x_t.device).expand(b), self.config.width))

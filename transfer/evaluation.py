@@ -33,9 +33,19 @@ from tqdm import tqdm
 
 from motioncore.representation import decode_positions
 from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.classifiers import MotionClassifier, default_weights, load_classifier, run_batched
+from transfer.classifiers import (
+    MotionClassifier,
+    default_weights,
+    load_classifier,
+    run_batched,
+)
 from transfer.dataset import ClipRecord, MotionDataset
-from transfer.metrics import foot_contact_agreement, foot_skating_ratio, frechet_distance, recognition_accuracy
+from transfer.metrics import (
+    foot_contact_agreement,
+    foot_skating_ratio,
+    frechet_distance,
+    recognition_accuracy,
+)
 
 Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
 

@@ -11,7 +11,7 @@ import numpy as np
 import scipy.linalg
 import torch
 
-from motioncore.representation import decode_positions, foot_contacts, FEATURES
+from motioncore.representation import FEATURES, decode_positions, foot_contacts
 from motioncore.skeleton import CANONICAL, CanonicalSpec
 
 SKATING_HEIGHT = 0.03  # metres above the joint's lowest point (see foot_skating_ratio)

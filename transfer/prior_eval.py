@@ -71,7 +71,8 @@ def retrieval(encoder, text_encoder, data: MotionDataset, seed: int = 0, gallery
 
 
 def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset, out_dir: Path | None, length: int = 80,
-                   steps: int = 50, guidance: float = 2.5, seed: int = 0) -> dict:
+                   steps: int = 50, guidance: float = 2.5, seed: int = 0, classifier=None) -> dict:
+    """Samples for every content x style caption; ``classifier`` (the evaluation's content classifier) adds an FD on its features."""
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
     gen = torch.Generator().manual_seed(seed)
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
@@ -89,6 +90,13 @@ def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset,
     out = {"samples": len(samples), "seconds_per_sample": per_sample, "steps": steps, "guidance": guidance,
            "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
            "skating_real": foot_skating_ratio(pos_real)}
+    if classifier is not None:
+        from transfer.classifiers import run_batched
+
+        def feats(xs):
+            return run_batched(classifier, [classifier.normalize(x * std + mean) for x in xs], "features")
+
+        out["fd_classifier_features"] = frechet_distance(feats(samples), feats(real))
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
         sk = CANONICAL.skeleton

@@ -268,8 +268,22 @@ def valid_to_mask(valid: torch.Tensor | None, frames: int) -> torch.Tensor | Non
 
 
 __all__ = [
-    "GRAPH_CHANNELS", "NUM_PARTITIONS", "skeleton_edges", "hop_distance", "partition_labels",
-    "partition_adjacency", "canonical_labels", "canonical_adjacency", "pooled_graph", "graph_pool", "graph_unpool",
-    "features_to_graph", "graph_to_features", "GraphConv", "STGCNBlock", "masked_mean", "valid_to_mask",
+    "GRAPH_CHANNELS",
+    "NUM_PARTITIONS",
+    "GraphConv",
+    "STGCNBlock",
+    "canonical_adjacency",
+    "canonical_labels",
     "downsample_mask",
+    "features_to_graph",
+    "graph_pool",
+    "graph_to_features",
+    "graph_unpool",
+    "hop_distance",
+    "masked_mean",
+    "partition_adjacency",
+    "partition_labels",
+    "pooled_graph",
+    "skeleton_edges",
+    "valid_to_mask",
 ]

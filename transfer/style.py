@@ -70,7 +70,7 @@ class Style:
             tmp.unlink(missing_ok=True)
 
     @staticmethod
-    def load(path: Path) -> "Style":
+    def load(path: Path) -> Style:
         path = Path(path)
         try:
             with safe_open(str(path), framework="pt") as f:
@@ -78,7 +78,7 @@ class Style:
             tensors = load_file(str(path))
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such style file") from None
-        except Exception as e:  # safetensors raises its own errors on garbage
+        except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage
             raise ValueError(f"{path}: not a video2style style file ({e})") from None
         example = tensors.pop("example", None)
         return Style({k: v.float() for k, v in tensors.items()}, meta, example)

@@ -108,7 +108,7 @@ class Trainer:
         elapsed0 = self.elapsed
         last_ckpt = start
         bar = tqdm(total=max_steps, initial=self.step, disable=not progress, unit="step", dynamic_ncols=True)
-        writer_file = open(log_path, "a", newline="")
+        writer_file = open(log_path, "a", newline="")  # noqa: SIM115 - closed in the finally below
         writer = None
         try:
             self.model.train()

@@ -56,7 +56,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength_step:
             try:
                 learn_file(video, style_path, style_words=video.stem.replace("_", " "), config=learn_config,
                            progress=lambda s: progress(f"    {s}"))
-            except Exception as e:  # one bad video must not stop the batch
+            except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
                 report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
                 progress(f"    failed: {e}")
                 continue
@@ -71,7 +71,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength_step:
             t1 = time.time()
             try:
                 info = apply_file(style, model, clip, out_bvh.parent, strength_step, seed)
-            except Exception as e:
+            except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
                 report.add(video=video.name, clip=clip.name, status="failed", error=str(e), seconds=time.time() - t1)
                 progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")
                 continue

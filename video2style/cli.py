@@ -214,8 +214,9 @@ def cmd_batch(args) -> None:
 def cmd_demo(args) -> None:
     from video2style.demo import run_demo
 
-    for line in run_demo(args.out):
-        print(line)
+    report = run_demo(args.out)
+    if report.failures:
+        raise CliError(f"{len(report.failures)} demo item(s) failed (see the table)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,7 +1,11 @@
-"""``video2style demo``: what the tool does, on the project-made clips in ``samples/``."""
+"""``video2style demo``: the whole job on the project-made inputs in ``samples/``.
+
+1. ``pose``: each sample video -> BVH + a preview of the landmarks beside the fitted skeleton;
+2. ``batch``: learn each video's style (the file name gives the style words) and apply it to every
+   sample BVH clip -> stylised BVH, previews, a summary table and ``index.html``.
+"""
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 from video2style.paths import PACKAGE_ROOT
@@ -16,13 +20,24 @@ def sample_clips() -> list[Path]:
     return clips
 
 
-def run_demo(out_dir: Path) -> Iterator[str]:
-    """Runs each stage that exists so far on the samples; yields one line per result."""
-    from video2style.preview import preview_bvh_files
+def run_demo(out_dir: Path, say=print, samples: Path = SAMPLES):
+    """Runs pose and batch on ``samples``; returns the batch report (see :mod:`video2style.batch`)."""
+    from transfer.apply import strength_to_step
+    from video2style.batch import find_videos, run_batch
+    from video2style.pose import pose_file
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    clips = sample_clips()
-    yield f"samples: {', '.join(c.name for c in clips)}"
-    out = preview_bvh_files(clips, out_dir / "samples_canonical.mp4", canonical=True)
-    yield f"preview of the samples on the canonical skeleton: {out}"
+    clips, videos = sorted(Path(samples).glob("*.bvh")), find_videos(samples)
+    if not clips or not videos:
+        raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python samples/make_samples.py)")
+    say(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
+        f"{len(clips)} clip(s) ({', '.join(c.name for c in clips)})")
+    for video in videos:
+        info = pose_file(video, out_dir / "pose" / f"{video.stem}.bvh", out_dir / "pose" / f"{video.stem}_pose.mp4", progress=False)
+        say(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames, {info['fps']:.0f} frames/s), "
+            f"preview {info['preview']}")
+    report = run_batch(samples, samples, out_dir, strength_to_step(0.5), progress=say)
+    say(report.table())
+    say(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")
+    return report

@@ -12,7 +12,13 @@ import torch
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.motion import Motion, resample
 from motioncore.representation import decode, encode
-from motioncore.retarget import Rig, from_canonical, make_rig, place_on_floor, to_canonical
+from motioncore.retarget import (
+    Rig,
+    from_canonical,
+    make_rig,
+    place_on_floor,
+    to_canonical,
+)
 from motioncore.skeleton import CANONICAL
 from video2style.paths import PACKAGE_ROOT
 
@@ -50,6 +56,18 @@ def load_models() -> Models:
     prior, mean, std = load_prior(prior_path)
     encoder = load_motion_encoder(weights_path("motion_encoder.safetensors"))
     return Models(prior, mean, std, encoder, default_text_encoder(), prior_path)
+
+
+def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5) -> list[Motion]:
+    """Text-to-motion samples of the shipped prior, one per caption, as canonical motions standing on the floor."""
+    from transfer.sampling import generate
+    from transfer.scheduler import DiffusionScheduler
+
+    m = load_models()
+    gen = torch.Generator().manual_seed(seed)
+    x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), m.text_encoder.encode(captions), frames,
+                 steps, guidance, gen)
+    return [place_on_floor(decode(f * m.std + m.mean)) for f in x]
 
 
 @dataclass
@@ -136,7 +154,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
     progress("[3/4] learning")
-    style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
+    style, _ = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
                               m.prior_path, progress=lambda s: progress(f"      {s}"))
     style.example = encode(clip.canonical)
     style.meta.update({"source": Path(path).name, "example_seconds": round(clip.canonical.duration, 2)})

@@ -11,7 +11,13 @@ from motioncore import quat
 from motioncore.bvh import read_bvh
 from motioncore.motion import Motion, resample
 from motioncore.render import Panel, render_video
-from motioncore.retarget import RetargetError, detect_up_basis, make_rig, place_on_floor, to_canonical
+from motioncore.retarget import (
+    RetargetError,
+    detect_up_basis,
+    make_rig,
+    place_on_floor,
+    to_canonical,
+)
 from motioncore.skeleton import CANONICAL
 
 MAX_FPS = 30.0

@@ -13,7 +13,13 @@ from dataclasses import dataclass
 import numpy as np
 import onnxruntime as ort
 
-from lifting.blazepose.geometry import Roi, crop, crop_to_image, letterbox_roi, roi_from_alignment_points
+from lifting.blazepose.geometry import (
+    Roi,
+    crop,
+    crop_to_image,
+    letterbox_roi,
+    roi_from_alignment_points,
+)
 
 INPUT_SIZE = 224
 NUM_ANCHORS = 2254

@@ -19,9 +19,19 @@ import cv2
 import numpy as np
 from ai_edge_litert.interpreter import Interpreter
 
-from lifting.blazepose.assets import MODELS, WHEEL_ENV, download_wheel, read_wheel_member
+from lifting.blazepose.assets import (
+    MODELS,
+    WHEEL_ENV,
+    download_wheel,
+    read_wheel_member,
+)
 from lifting.blazepose.detector import decode, weighted_nms
-from lifting.blazepose.geometry import crop, crop_to_image, letterbox_roi, roi_from_alignment_points
+from lifting.blazepose.geometry import (
+    crop,
+    crop_to_image,
+    letterbox_roi,
+    roi_from_alignment_points,
+)
 from lifting.blazepose.synthetic import humanoid_frame
 
 OUT = Path(__file__).parent / "data" / "blazepose_reference.npz"

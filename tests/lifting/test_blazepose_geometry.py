@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from lifting.blazepose.detector import Detection, decode, iou, merge_detections, ssd_anchors, weighted_nms
+from lifting.blazepose.detector import (
+    Detection,
+    decode,
+    iou,
+    merge_detections,
+    ssd_anchors,
+    weighted_nms,
+)
 from lifting.blazepose.filters import OneEuroFilter
 from lifting.blazepose.geometry import (
     Roi,

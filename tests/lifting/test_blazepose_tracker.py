@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 
 from lifting.blazepose.landmarks import POSE_LANDMARKS
-from lifting.blazepose.synthetic import draw_humanoid, humanoid_frame, humanoid_joints, write_walking_clip
+from lifting.blazepose.synthetic import (
+    draw_humanoid,
+    humanoid_frame,
+    humanoid_joints,
+    write_walking_clip,
+)
 from lifting.blazepose.tracker import TrackResult, track_video
 
 # BlazePose index -> synthetic joint (the figure faces the camera: its left is image right)

@@ -19,7 +19,14 @@ from hypothesis import strategies as st
 
 from lifting.blazepose.sparse import densify, dequantize
 from lifting.blazepose.tflite2onnx import graph_to_onnx
-from lifting.blazepose.tflite_model import DimMetadata, Graph, Op, Quantization, Sparsity, Tensor
+from lifting.blazepose.tflite_model import (
+    DimMetadata,
+    Graph,
+    Op,
+    Quantization,
+    Sparsity,
+    Tensor,
+)
 
 DATA = Path(__file__).parent / "data"
 RNG = np.random.default_rng(1234)
@@ -386,7 +393,12 @@ def test_whole_models_match_recorded_tflite_outputs(blazepose_models):
 @pytest.fixture(scope="module")
 def tflite_models(tmp_path_factory, blazepose_models):
     pytest.importorskip("ai_edge_litert.interpreter", reason="ai-edge-litert (optional test extra) not installed")
-    from lifting.blazepose.assets import MODELS, ModelUnavailableError, download_wheel, read_wheel_member
+    from lifting.blazepose.assets import (
+        MODELS,
+        ModelUnavailableError,
+        download_wheel,
+        read_wheel_member,
+    )
 
     folder = tmp_path_factory.mktemp("tflite")
     try:

@@ -1,0 +1,83 @@
+"""Speed of ``learn`` (pose included) and ``apply`` on 10-second clips, and the style file size.
+
+    python benchmarks/bench_transfer.py [--seconds 10] [--threads 2] [--work DIR]
+
+Inputs are project-made: a prior sample of "a person walks, elderly style" rendered as a 720p
+video of the project's humanoid (the style example), and a prior sample of "a person walks" as
+a 30 fps BVH (the content). Targets (issue 5): learn <= 90 s, apply <= 1 s per 10 s clip
+(cleanup included), style file <= 1 MB. Previews are off for the apply timing; the time with a
+preview and with neutralisation (styled content) is printed too.
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+
+def make_inputs(work: Path, seconds: float) -> tuple[Path, Path]:
+    from lifting.render_humanoid import frame_camera, write_humanoid_video
+    from motioncore.bvh import BvhLayout, write_bvh
+    from motioncore.motion import resample
+    from motioncore.skeleton import CANONICAL
+    from video2style.pipeline import prior_samples
+
+    frames = round(seconds * CANONICAL.fps)
+    style, content = prior_samples(["a person walks, elderly style", "a person walks"], frames=frames, seed=1)
+    style30 = resample(style, 30.0)
+    video = write_humanoid_video(style30, frame_camera(style30.global_positions().numpy(), 35.0), work / "elderly.mp4")
+    bvh = work / "walk.bvh"
+    write_bvh(bvh, resample(content, 30.0), BvhLayout.default(CANONICAL.skeleton, "ZXY", scale=0.01))
+    return video, bvh
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--work", type=Path, help="keep inputs and outputs here (default: a temporary folder)")
+    ap.add_argument("--repeats", type=int, default=3, help="apply timings: best of this many")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+
+    from transfer.apply import strength_to_step
+    from transfer.style import Style, style_model
+    from video2style.pipeline import apply_file, learn_file, load_models
+
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.work or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        video, bvh = make_inputs(work, args.seconds)
+        t0 = time.perf_counter()
+        load_models()
+        print(f"loading models: {time.perf_counter() - t0:.1f} s (once per process, not counted below)")
+
+        t0 = time.perf_counter()
+        summary = learn_file(video, work / "elderly.v2s", "elderly", progress=lambda s: None)
+        learn_s = time.perf_counter() - t0
+        size = (work / "elderly.v2s").stat().st_size
+        print(f"learn ({args.seconds:g} s 720p video, pose included): {learn_s:.1f} s "
+              f"({summary['iterations']} fine-tuning iterations; content read as {summary['content']!r})  target <= 90 s")
+        print(f"style file: {size / 1024:.0f} KiB  target <= 1024 KiB")
+
+        style = Style.load(work / "elderly.v2s")
+        model = style_model(load_models().prior, style)
+        step = strength_to_step(0.5)
+        for label, kw in [("apply, no preview", {"preview": False, "neutralize": "never"}),
+                          ("apply, content recognised first (auto)", {"preview": False, "neutralize": "auto"}),
+                          ("apply, neutralised first (styled content)", {"preview": False, "neutralize": "always"}),
+                          ("apply with preview", {"preview": True, "neutralize": "never"})]:
+            times = []
+            for _ in range(args.repeats):
+                t0 = time.perf_counter()
+                apply_file(style, model, bvh, work / "out", step, **kw)
+                times.append(time.perf_counter() - t0)
+            print(f"{label} ({args.seconds:g} s clip, 30 fps BVH in and out, cleanup included): "
+                  f"best {min(times):.2f} s, mean {sum(times) / len(times):.2f} s" + ("  target <= 1 s" if label.startswith("apply, no") else ""))
+
+
+if __name__ == "__main__":
+    main()
