@@ -97,3 +97,13 @@ def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, mon
     assert "| identity |" in table and "| stgcn |" in table and lines[-1].startswith("wrote")
     with pytest.raises(ValueError, match="unknown method"):
         list(evaluate(cache, tmp_path / "eval2", methods=["nope"]))
+
+
+def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
+    from tests.synthetic_cache import write_synthetic_cache
+
+    cache = write_synthetic_cache(tmp_path / "cache")
+    weights = tmp_path / "style.safetensors"
+    assert main(["train-classifier", "--target", "style", "--data", str(cache), "--out", str(tmp_path / "run"),
+                 "--weights", str(weights), "--max-steps", "2", "-q"]) == 0
+    assert weights.is_file() and "style classifier: step 2" in capsys.readouterr().out

@@ -192,6 +192,21 @@ def cmd_train_park(args) -> None:
     print(f"step {card.get('steps', '?')}; weights: {args.weights or 'transfer/weights/park_stylizer.safetensors'}")
 
 
+def cmd_train_classifier(args) -> None:
+    import torch
+
+    from transfer.classifiers import ClassifierTrainConfig, train_classifier
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    explicit = {"seed": args.seed} if args.seed is not None else {}
+    out = args.out or args.run_root / f"classifier_{args.target}"
+    card = train_classifier(args.data, out, args.target, args.max_minutes, args.max_steps,
+                            ClassifierTrainConfig(target=args.target, **explicit), args.weights, explicit, progress=not args.quiet)
+    print(f"{args.target} classifier: step {card['steps']}, test accuracy {100 * card['test_accuracy']:.1f}% "
+          f"on {card['test_clips']} clips")
+
+
 def cmd_evaluate(args) -> None:
     from video2style.evaluate import evaluate
 
@@ -340,6 +355,18 @@ def build_parser() -> argparse.ArgumentParser:
                         help="default: see transfer.park.train.ParkTrainConfig; a resumed run keeps its own")
     tp.add_argument("-q", "--quiet", action="store_true")
     tp.set_defaults(func=cmd_train_park)
+
+    tc = sub.add_parser("train-classifier", help="train (or resume) an ST-GCN content or style classifier for evaluate")
+    tc.add_argument("--target", choices=["content", "style"], required=True)
+    tc.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
+    tc.add_argument("--out", type=Path, help="run folder (default: <cache>/runs/classifier_<target>)")
+    tc.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/classifier_<target>.safetensors)")
+    tc.add_argument("--max-minutes", type=_positive, default=10.0)
+    tc.add_argument("--max-steps", type=int, default=600)
+    tc.add_argument("--threads", type=int, default=0)
+    tc.add_argument("--seed", type=int, default=None)
+    tc.add_argument("-q", "--quiet", action="store_true")
+    tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")
 
     ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
                         epilog="example: video2style evaluate --quick --methods identity stgcn ours")
