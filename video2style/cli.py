@@ -130,7 +130,8 @@ def cmd_apply(args) -> None:
             continue
         extra = f", neutralised ({info['detected']})" if info.get("neutralized") else ""
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra})")
+        skate = f", foot skating {100 * info['skating_before']:.1f}% -> {100 * info['skating_after']:.1f}%" if "skating_after" in info else ""
+        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra}{skate})")
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 

@@ -181,14 +181,25 @@ def apply_file(style, model, path: Path, out_dir: Path, step: int, seed: int = 0
         detected = f"{content}/{style_label}"
         if neutralize == "always" or style_label != "normal":
             neutral_text = m.text_encoder.encode([content_caption(content)])
-    result = apply_style_motion(model, m.prior, clip.canonical, m.mean, m.std, config, step, seed, neutral_text)
+    raw = apply_style_motion(model, m.prior, clip.canonical, m.mean, m.std, config, step, seed, neutral_text, clean=False)
+    result, skating = clean_feet(raw, clip.canonical)
     ex = example_motion(style)
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
     info = {"input": str(path), "frames": clip.canonical.num_frames, "detected": detected,
-            "neutralized": neutral_text is not None, "seconds_transfer": time.time() - t0}
+            "neutralized": neutral_text is not None, "seconds_transfer": time.time() - t0, **skating}
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
+
+
+def clean_feet(motion: Motion, content: Motion) -> tuple[Motion, dict]:
+    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
+    from motioncore.cleanup import cleanup_feet
+    from transfer.metrics import foot_skating_ratio
+
+    cleaned = cleanup_feet(motion, reference=content)
+    return cleaned, {"skating_before": foot_skating_ratio(motion.global_positions(), motion.fps),
+                     "skating_after": foot_skating_ratio(cleaned.global_positions(), cleaned.fps)}
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),

@@ -13,10 +13,15 @@ from pathlib import Path
 
 import torch
 
-from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import decode, encode, facing_angle
-from video2style.pipeline import Clip, read_clip, weights_path, write_outputs
+from video2style.pipeline import (
+    Clip,
+    clean_feet,
+    read_clip,
+    weights_path,
+    write_outputs,
+)
 
 
 @lru_cache(maxsize=2)
@@ -72,8 +77,12 @@ def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> 
     return [(c, f"{request.domain}-s{request.seed + i}" if request.variants > 1 else request.domain) for i, c in enumerate(codes)]
 
 
-def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean: bool = True) -> list[tuple[Motion, str]]:
-    """Each code applied to the clip's canonical motion -> ``[(motion, tag)]`` on the content's path."""
+def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean: bool = True,
+                 skating: list | None = None) -> list[tuple[Motion, str]]:
+    """Each code applied to the clip's canonical motion -> ``[(motion, tag)]`` on the content's path.
+
+    With ``clean`` the feet are cleaned by IK; ``skating``, if given, receives each output's skating ratios.
+    """
     from transfer.park.infer import generate
 
     content = clip.canonical
@@ -84,7 +93,11 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
     for code, tag in codes:
         feats = generate(model, x, code) * model.std + model.mean
         motion = decode(feats, content.fps, **start)
-        out.append((cleanup_feet(motion, reference=content) if clean else motion, tag))
+        if clean:
+            motion, ratios = clean_feet(motion, content)
+            if skating is not None:
+                skating.append(ratios)
+        out.append((motion, tag))
     return out
 
 
@@ -94,8 +107,10 @@ def apply_stgcn_file(model, path: Path, out_dir: Path, request: StgcnRequest, jo
     t0 = time.time()
     clip = read_clip(path, joint_map)
     codes = style_codes(model, request, joint_map)
-    results = stylize_clip(model, clip, codes)
-    info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0}
+    skating: list[dict] = []
+    results = stylize_clip(model, clip, codes, skating=skating)
+    info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
+            "skating_before": max(r["skating_before"] for r in skating), "skating_after": max(r["skating_after"] for r in skating)}
     info.update(write_outputs(clip, results, Path(out_dir), preview=preview))
     info["seconds"] = time.time() - t0
     return info
