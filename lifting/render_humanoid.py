@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from motioncore import quat
+from motioncore.files import publish
 from motioncore.kinematics import fk
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
@@ -231,7 +232,7 @@ def write_humanoid_video(motion: Motion, cam: Camera, path: str | os.PathLike) -
         for frame in render_frames(motion, cam):
             writer.write(frame)
         writer.release()
-        os.replace(tmp, out)
+        publish(tmp, out)
     except BaseException:
         writer.release()
         Path(tmp).unlink(missing_ok=True)

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from motioncore import quat
+from motioncore.files import publish
 from motioncore.motion import Motion
 from motioncore.skeleton import Skeleton
 
@@ -312,10 +313,7 @@ def atomic_write_text(path: Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
             f.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -18,6 +18,8 @@ import cv2
 import numpy as np
 import torch
 
+from motioncore.files import publish
+
 BACKGROUND = (240, 238, 234)
 GRID = (150, 150, 150)
 SHADOW = (80, 80, 80)
@@ -236,7 +238,7 @@ def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: floa
             if progress and (t + 1 == n or t % max(1, n // 10) == 0):
                 print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
         writer.release()
-        os.replace(tmp, out)
+        publish(tmp, out)
     except BaseException:
         writer.release()
         Path(tmp).unlink(missing_ok=True)

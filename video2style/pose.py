@@ -25,6 +25,7 @@ from lifting.fit import DEFAULT_FOV_DEG
 from lifting.pipeline import LiftResult, Progress, _Reporter, lift_video
 from lifting.video import iter_frames
 from motioncore.bvh import BvhLayout, write_bvh
+from motioncore.files import publish
 from motioncore.render import Panel, render_frame
 from motioncore.skeleton import CANONICAL
 
@@ -68,7 +69,7 @@ def pose_file(
         write_bvh(out_bvh, lifted.motion, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
         if tmp_preview is not None:
             try:
-                os.replace(tmp_preview, preview)
+                publish(tmp_preview, preview)
             except OSError:
                 out_bvh.unlink(missing_ok=True)  # all or nothing
                 raise
