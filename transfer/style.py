@@ -46,6 +46,7 @@ class StyleConfig:
     window: int = 80
     seed: int = 0
     pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
+    lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
 
 
 @dataclass
@@ -176,13 +177,18 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
         target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
         loss_s = (1 - (z * target).sum(-1)).mean()
         loss = loss_rec + config.lambda_s * loss_s
+        if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
+            with torch.no_grad():
+                x0_p = overwrite(prior(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
+            w = valid[..., None].to(x0_c.dtype)
+            loss = loss + config.lambda_p * (((x0_c - x0_p) ** 2) * w).sum() / (w.sum() * x0_c.shape[-1])
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
         it += 1
         history.append((loss_rec.item(), loss_s.item()))
         if it % 10 == 0:
-            say(f"fine-tuning: iteration {it}, L_rec {float(loss_rec):.4f}, L_s {float(loss_s):.4f}")
+            say(f"fine-tuning: iteration {it}, L_rec {loss_rec.item():.4f}, L_s {loss_s.item():.4f}")
     model.eval()
     meta = {
         "style": style_words,

@@ -7,7 +7,8 @@ Methods (names as on the command line):
 - ``ours``: Hu et al.'s on-the-fly method as ``learn`` + ``apply`` run it: one style learned per
   distinct style example (cached for the run; learning time is reported apart), content
   neutralised when the motion encoder reads it as styled, K = 300, foot cleanup;
-- ablations: ``ours-no-ls`` (lambda_s = 0), ``ours-no-pair`` (fine-tuned from the example itself,
+- ablations: ``ours-no-ls`` (lambda_s = 0), ``ours-no-pp`` (no prior preservation: Hu et al.'s loss
+  exactly), ``ours-no-pair`` (fine-tuned from the example itself,
   no neutral pair), ``ours-k150`` and ``ours-k600`` (other K).
 
 Learning costs about a minute per example, so by default style examples are drawn from one clip
@@ -30,6 +31,7 @@ from motioncore.representation import decode, encode
 ABLATIONS = {
     "ours": {},
     "ours-no-ls": {"lambda_s": 0.0},
+    "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
     "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
     "ours-k600": {"transfer_step": 600, "transfer_steps": 12},

@@ -149,7 +149,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     if text is None:
         content, _, top = classify_caption(m.motion_encoder, m.text_encoder, example)
         text = content
-        progress(f"[2/4] content by retrieval: {top[0][0]!r} (then {top[1][0]!r})")
+        progress(f"[2/4] content by retrieval: {content!r} (nearest captions {top[0][0]!r}, {top[1][0]!r})")
     else:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
