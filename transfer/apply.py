@@ -57,19 +57,33 @@ def classify_caption(motion_encoder, text_encoder, x: torch.Tensor) -> tuple[str
     return c, s, [(caption(*pairs[i]), float(sims[i])) for i in order[:3]]
 
 
+def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], torch.Tensor]:
+    if x.ndim != 2 or x.shape[1] != FEATURES.dim:
+        raise ValueError(f"expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
+    starts = window_starts(x.shape[0], window, overlap)
+    return starts, torch.stack([x[s:s + window] for s in starts])  # (W, L, D): all windows as one batch
+
+
+@torch.no_grad()
+def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, config: StyleConfig, seed: int = 0,
+                        window: int = 80, overlap: int = 20) -> torch.Tensor:
+    """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``."""
+    scheduler = DiffusionScheduler(prior.config.num_train_steps)
+    starts, parts = _windows(x, window, overlap)
+    gen = torch.Generator().manual_seed(seed + 1)
+    parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen)
+    return crossfade(list(parts), starts, x.shape[0])
+
+
 @torch.no_grad()
 def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, step: int, seed: int = 0,
                          neutral_text: torch.Tensor | None = None, window: int = 80, overlap: int = 20) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)``; ``neutral_text (1, E)`` first neutralises a styled clip."""
-    if x.ndim != 2 or x.shape[1] != FEATURES.dim:
-        raise ValueError(f"apply_style_features: expected (T, {FEATURES.dim}), got {tuple(x.shape)}")
-    scheduler = DiffusionScheduler(model.config.num_train_steps)
-    gen = torch.Generator().manual_seed(seed)
-    starts = window_starts(x.shape[0], window, overlap)
-    parts = torch.stack([x[s:s + window] for s in starts])  # (W, L, D): all windows denoised as one batch
     if neutral_text is not None:
-        parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen)
-    chunks = list(stylize(model, scheduler, parts, config, gen, step=step))
+        x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
+    scheduler = DiffusionScheduler(model.config.num_train_steps)
+    starts, parts = _windows(x, window, overlap)
+    chunks = list(stylize(model, scheduler, parts, config, torch.Generator().manual_seed(seed), step=step))
     return crossfade(chunks, starts, x.shape[0])
 
 

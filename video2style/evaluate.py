@@ -11,8 +11,9 @@ Methods (names as on the command line):
   exactly), ``ours-no-pair`` (fine-tuned from the example itself,
   no neutral pair), ``ours-k150`` and ``ours-k600`` (other K).
 
-Learning costs about a minute per example, so by default style examples are drawn from one clip
-per style (``examples_pool``) — seven learned styles per variant of ours.
+Learning costs a fixed budget per example (30 s quick, 60 s full by default), so style examples
+are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or 21 learned
+styles per variant of ours. Each content clip is neutralised once and reused for its six targets.
 """
 from __future__ import annotations
 
@@ -55,6 +56,7 @@ class OnTheFly:
     def __init__(self, models, content_data, config, seed: int = 0, progress=None):
         self.m, self.data, self.config, self.seed = models, content_data, config, seed
         self.styles: dict[str, torch.nn.Module] = {}
+        self.neutral: dict[str, torch.Tensor] = {}
         self.learn_seconds: list[float] = []
         self.say = progress or (lambda s: None)
 
@@ -74,13 +76,20 @@ class OnTheFly:
         return self.styles[key]
 
     def __call__(self, content, style, style_label, content_label):
-        from transfer.apply import apply_style_features, classify_caption
+        from transfer.apply import (
+            apply_style_features,
+            classify_caption,
+            neutralize_features,
+        )
         from transfer.captions import content_caption
 
         model = self._model(style, style_label)
-        detected, source_style, _ = classify_caption(self.m.motion_encoder, self.m.text_encoder, content)
-        neutral = None if source_style == "normal" else self.m.text_encoder.encode([content_caption(detected)])
-        return apply_style_features(model, self.m.prior, content, self.config, self.config.transfer_step, self.seed, neutral)
+        key = hashlib.sha1(content.numpy().tobytes()).hexdigest()
+        if key not in self.neutral:  # each content clip goes to six styles: neutralise it once
+            detected, source_style, _ = classify_caption(self.m.motion_encoder, self.m.text_encoder, content)
+            self.neutral[key] = content if source_style == "normal" else neutralize_features(
+                self.m.prior, content, self.m.text_encoder.encode([content_caption(detected)]), self.config, self.seed)
+        return apply_style_features(model, self.m.prior, self.neutral[key], self.config, self.config.transfer_step, self.seed)
 
 
 def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: int = 0, say=print) -> tuple[dict, dict]:
@@ -114,13 +123,14 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
 
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
-             learn_seconds: float = 60.0, examples_pool: int | None = None, say=print) -> Iterator[str]:
+             learn_seconds: float | None = None, examples_pool: int | None = None, say=print) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md`` and ``rows.json``; yields the report lines."""
     from transfer.evaluation import format_table, run_protocol
 
     if not (Path(data_dir) / "features.safetensors").is_file():
         raise FileNotFoundError(f"{data_dir}: no dataset cache (build it with video2style dataset)")
     names = list(methods or ["identity", "stgcn", "ours"])
+    learn_seconds = learn_seconds or (30.0 if quick else 60.0)
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
@@ -137,7 +147,8 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     learned = [f"- {r['method']}: {r['styles_learned']} styles learned, {r['learn_seconds_mean']:.0f} s each "
                "(included in s / transfer)" for r in rows if "styles_learned" in r]
     header = (f"protocol: {'quick' if quick else 'full'}, seed {seed}, style examples from "
-              f"{examples_pool or 'all'} clip(s) per style; {time.time() - t0:.0f} s in all")
+              f"{examples_pool or 'all'} clip(s) per style, learning budget {learn_seconds:g} s per example; "
+              f"{time.time() - t0:.0f} s in all")
     (out_dir / "table.md").write_text("\n".join([header, "", table, "", *learned]) + "\n")
     (out_dir / "rows.json").write_text(json.dumps(rows, indent=1))
     yield header
