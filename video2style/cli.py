@@ -375,7 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md and rows.json")
     ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
     ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"],
-                    help="identity, stgcn, ours, ours-no-ls, ours-no-pp, ours-no-pair, ours-k150, ours-k600 (default: %(default)s)")
+                    help="identity, stgcn, stgcn-raw, ours, ours-no-ls, ours-no-pp, ours-no-pair, ours-k150, ours-k600 (default: %(default)s)")
     ev.add_argument("--learn-seconds", type=_positive, help="fine-tuning budget per style example (default: 30 quick, 60 full)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default: 1 quick, all full)")
     ev.add_argument("--seed", type=int, default=0)

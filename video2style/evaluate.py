@@ -3,7 +3,8 @@
 Methods (names as on the command line):
 
 - ``identity``: the content clip unchanged (baseline);
-- ``stgcn``: Park et al.'s stylizer, style code from the style example through E, then foot cleanup;
+- ``stgcn``: Park et al.'s stylizer, style code from the style example through E, then foot cleanup
+  (decode, IK, encode again); ``stgcn-raw``: its output features as they come;
 - ``ours``: Hu et al.'s on-the-fly method as ``learn`` + ``apply`` run it: one style learned per
   distinct style example (cached for the run; learning time is reported apart), content
   neutralised when the motion encoder reads it as styled, K = 300, foot cleanup;
@@ -37,7 +38,7 @@ ABLATIONS = {
     "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
     "ours-k600": {"transfer_step": 600, "transfer_steps": 12},
 }
-METHODS = ("identity", "stgcn", *ABLATIONS)
+METHODS = ("identity", "stgcn", "stgcn-raw", *ABLATIONS)
 
 
 def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor):
@@ -106,11 +107,12 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
     for name in names:
         if name == "identity":
             methods[name] = identity_transfer
-        elif name == "stgcn":
+        elif name in ("stgcn", "stgcn-raw"):
             from transfer.park.infer import park_method
             from video2style.stgcn import load_stylizer
 
-            methods[name] = cleaned(park_method(load_stylizer(), seed), test.mean, test.std)
+            method = park_method(load_stylizer(), seed)
+            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std)
         else:
             from video2style.pipeline import load_models
 
