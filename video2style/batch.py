@@ -90,14 +90,18 @@ def write_index(report: BatchReport, out_dir: Path) -> Path:
             rel = Path(r["preview"]).resolve().relative_to(out_dir.resolve())
             cells.setdefault(r["video"], []).append(
                 f'<figure><video src="{html.escape(str(rel))}" controls muted loop width="360"></video>'
-                f"<figcaption>{html.escape(r['clip'])}</figcaption></figure>")
+                f"<figcaption><a href=\"{html.escape(str(rel))}\">{html.escape(r['clip'])}</a> "
+                f"(content | style example | result)</figcaption></figure>")
         elif r["status"] == "failed":
             cells.setdefault(r["video"], []).append(
                 f"<figure><figcaption>{html.escape(r.get('clip', 'learning'))}: failed: {html.escape(r['error'])}</figcaption></figure>")
     body = "".join(f"<h2>{html.escape(v)}</h2><div class=row>{''.join(c)}</div>" for v, c in cells.items())
     page = ("<!doctype html><meta charset=utf-8><title>video2style batch</title>"
             "<style>body{font-family:sans-serif}.row{display:flex;flex-wrap:wrap;gap:8px}figure{margin:0}</style>"
-            f"<h1>video2style batch results</h1>{body}")
+            "<h1>video2style batch results</h1><p>Previews are MPEG-4 part 2 (mp4v) files, which OpenCV writes "
+            "without extra codecs; browsers that do not play them inline can open the links with VLC or any "
+            "desktop player.</p>"
+            f"{body}")
     path = out_dir / "index.html"
     atomic_write_text(path, page)
     return path
