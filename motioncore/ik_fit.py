@@ -214,3 +214,16 @@ def _hinge_twist(g: torch.Tensor, bone: torch.Tensor, lower: torch.Tensor, norma
     w = _smoothstep(torch.rad2deg(bend), lo, hi)
     twist = quat.from_axis_angle(axis.expand(t_count, 3), w * psi)
     return quat.mul(g, twist)
+
+
+def decode_via_positions(feats: torch.Tensor, fps: float, start_yaw: float = 0.0,
+                         start_xz: tuple[float, float] = (0.0, 0.0), spec: CanonicalSpec = CANONICAL) -> Motion:
+    """Features ``(T, D)`` -> :class:`Motion` from their *position* channels (root path integrated from
+    ``start_*``), rotations solved by :func:`fit_positions`; for models whose rotation channels are
+    less reliable than their positions. ``representation.decode`` uses the rotation channels instead."""
+    from motioncore.representation import decode_positions
+
+    pos = decode_positions(feats.double(), spec, start_yaw)
+    pos[..., 0] += start_xz[0]
+    pos[..., 2] += start_xz[1]
+    return fit_positions(pos.float(), fps, spec)

@@ -3,8 +3,9 @@
 Methods (names as on the command line):
 
 - ``identity``: the content clip unchanged (baseline);
-- ``stgcn``: Park et al.'s stylizer, style code from the style example through E, then foot cleanup
-  (decode, IK, encode again); ``stgcn-raw``: its output features as they come;
+- ``stgcn``: Park et al.'s stylizer, style code from the style example through E, then what
+  ``apply --method stgcn`` does (rotations fitted to its position channels, foot cleanup) and
+  encoding again; ``stgcn-raw``: its output features as they come;
 - ``ours``: Hu et al.'s on-the-fly method as ``learn`` + ``apply`` run it: one style learned per
   distinct style example (cached for the run; learning time is reported apart), content
   neutralised when the motion encoder reads it as styled, K = 300, foot cleanup;
@@ -28,6 +29,7 @@ from pathlib import Path
 import torch
 
 from motioncore.cleanup import cleanup_feet
+from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
 
 ABLATIONS = {
@@ -41,11 +43,13 @@ ABLATIONS = {
 METHODS = ("identity", "stgcn", "stgcn-raw", *ABLATIONS)
 
 
-def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor):
-    """Wrap a method returning normalised features so its output goes through the foot cleanup, as ``apply`` does."""
+def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, from_positions: bool = False):
+    """Wrap a method returning normalised features so its output goes through decoding (from the rotation
+    channels, or from the positions as ``apply --method stgcn`` does), foot cleanup and encoding again."""
     def transfer(content, style, style_label, content_label):
         out = features_fn(content, style, style_label, content_label)
-        content_m, out_m = decode(content * std + mean), decode(out * std + mean)
+        content_m = decode(content * std + mean)
+        out_m = decode_via_positions(out * std + mean, content_m.fps) if from_positions else decode(out * std + mean)
         return (encode(cleanup_feet(out_m, reference=content_m)) - mean) / std
 
     return transfer
@@ -112,7 +116,7 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
             from video2style.stgcn import load_stylizer
 
             method = park_method(load_stylizer(), seed)
-            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std)
+            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std, from_positions=True)
         else:
             from video2style.pipeline import load_models
 

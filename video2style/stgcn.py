@@ -13,8 +13,9 @@ from pathlib import Path
 
 import torch
 
+from motioncore.ik_fit import decode_via_positions
 from motioncore.motion import Motion
-from motioncore.representation import decode, encode, facing_angle
+from motioncore.representation import encode, facing_angle
 from video2style.pipeline import (
     Clip,
     clean_feet,
@@ -92,7 +93,7 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
     out = []
     for code, tag in codes:
         feats = generate(model, x, code) * model.std + model.mean
-        motion = decode(feats, content.fps, **start)
+        motion = decode_via_positions(feats, content.fps, **start)  # its position channels are the better ones
         if clean:
             motion, ratios = clean_feet(motion, content)
             if skating is not None:
