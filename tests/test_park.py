@@ -152,3 +152,23 @@ def test_train_park_resumes(tmp_path):
     with pytest.raises(ValueError, match="cannot resume"):
         train_park(data, tmp_path / "run", cfg, max_minutes=1, max_steps=4, weights_path=weights, progress=False,
                    explicit={"batch_size": 4})
+
+
+def test_train_park_init_from_exported_weights(tmp_path):
+    from tests.synthetic_cache import write_synthetic_cache
+
+    data = write_synthetic_cache(tmp_path / "cache")
+    cfg = ParkTrainConfig(channels=[8, 16, 32], window=32, batch_size=2)
+    first = tmp_path / "first.safetensors"
+    train_park(data, tmp_path / "run1", cfg, max_minutes=1, max_steps=1, weights_path=first, progress=False)
+    # max_steps=0: nothing trained, so the export must equal the weights it started from
+    tuned_cfg = ParkTrainConfig(channels=[8, 16, 32], window=32, batch_size=2, weights=LossWeights(ds=3.0))
+    tuned = tmp_path / "tuned.safetensors"
+    card = train_park(data, tmp_path / "run2", tuned_cfg, max_minutes=1, max_steps=0, weights_path=tuned,
+                      progress=False, init_path=first)
+    assert card["initialised_from"] == "fine-tuned from first.safetensors" and card["train_config"]["weights"]["ds"] == 3.0
+    a, b = load_park(first).state_dict(), load_park(tuned).state_dict()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    with pytest.raises(ValueError, match="expected channels"):
+        train_park(data, tmp_path / "run3", ParkTrainConfig(channels=[4, 8, 16], window=32, batch_size=2),
+                   max_minutes=1, max_steps=0, weights_path=tmp_path / "x.safetensors", progress=False, init_path=first)

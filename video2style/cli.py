@@ -181,15 +181,24 @@ def cmd_pose(args) -> None:
 
 
 def cmd_train_park(args) -> None:
+    import dataclasses
+
     import torch
 
+    from transfer.park.losses import LossWeights
     from transfer.park.train import ParkTrainConfig, train_park
 
-    explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed") if getattr(args, k) is not None}
+    explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed", "ds_decay_steps") if getattr(args, k) is not None}
+    config = ParkTrainConfig(**explicit)
+    if args.lambda_ds is not None:
+        config.weights = LossWeights(ds=args.lambda_ds)
+        explicit["weights"] = dataclasses.asdict(config.weights)
+    if args.init is not None and not args.init.is_file():
+        raise SystemExit(f"error: {args.init}: no such weights file (--init)")
     if args.threads:
         torch.set_num_threads(args.threads)
-    card = train_park(args.data, args.out, ParkTrainConfig(**explicit), args.max_minutes, args.max_steps,
-                      args.weights, explicit, progress=not args.quiet)
+    card = train_park(args.data, args.out, config, args.max_minutes, args.max_steps,
+                      args.weights, explicit, progress=not args.quiet, init_path=args.init)
     print(f"step {card.get('steps', '?')}; weights: {args.weights or 'transfer/weights/park_stylizer.safetensors'}")
 
 
@@ -351,9 +360,13 @@ def build_parser() -> argparse.ArgumentParser:
     tp.add_argument("--max-minutes", type=_positive, default=60.0)
     tp.add_argument("--max-steps", type=int, default=100_000)
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
-    for name in ("batch_size", "window", "seed"):
+    for name in ("batch_size", "window", "seed", "ds_decay_steps"):
         tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
                         help="default: see transfer.park.train.ParkTrainConfig; a resumed run keeps its own")
+    tp.add_argument("--lambda-ds", type=float, default=None,
+                    help="weight of the diversity-sensitive loss (default 1, as in the paper)")
+    tp.add_argument("--init", type=Path, default=None,
+                    help="start a new run from exported weights (G/E/F; D fresh), e.g. to fine-tune with another --lambda-ds")
     tp.add_argument("-q", "--quiet", action="store_true")
     tp.set_defaults(func=cmd_train_park)
 

@@ -152,6 +152,16 @@ class ParkTraining:
         self.step, self.elapsed = int(meta["step"]), float(meta.get("elapsed", 0))
         return True
 
+    def init_from(self, weights_path: Path) -> None:
+        """Start G/E/F (and their EMA copies) from exported weights; the widths must match the config."""
+        from transfer.park.infer import load_park
+
+        exported = load_park(weights_path)
+        if list(exported.config.channels) != list(self.model.config.channels):
+            raise ValueError(f"{weights_path}: expected channels {self.model.config.channels}, got {exported.config.channels}")
+        self.model.load_state_dict(exported.state_dict())
+        self.ema.load_state_dict(exported.state_dict())
+
     @torch.no_grad()
     def update_ema(self) -> None:
         d = min(self.config.ema, (1 + self.step) / (10 + self.step))
@@ -193,8 +203,11 @@ class ParkTraining:
 
 def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = None, max_minutes: float = 10.0,
                max_steps: int = 100_000, weights_path: Path | None = None, explicit: dict | None = None,
-               checkpoint_minutes: float = 5.0, progress: bool = True) -> dict:
+               checkpoint_minutes: float = 5.0, progress: bool = True, init_path: Path | None = None) -> dict:
     """Train (or resume) on the Bandai-2 train split until ``max_steps`` or ``max_minutes`` (this call).
+
+    ``init_path``: exported weights (G/E/F) to start a *new* run from (fine-tuning, e.g. with another
+    ``weights.ds``); D starts fresh. Ignored when ``out_dir`` already holds a checkpoint.
 
     Exports the EMA G/E/F to ``weights_path`` (default ``transfer/weights/park_stylizer.safetensors``)
     with a JSON model card, and returns the card. Threads: set ``torch.set_num_threads`` before calling.
@@ -202,7 +215,10 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
     config = config or ParkTrainConfig()
     weights_path = Path(weights_path) if weights_path is not None else default_weights()
     run = ParkTraining(config, out_dir)
-    run.resume(explicit or {})
+    init_note = None
+    if not run.resume(explicit or {}) and init_path is not None:
+        run.init_from(Path(init_path))
+        init_note = f"fine-tuned from {Path(init_path).name}"
     data, idx, labels = labelled_clips(Path(data_dir), "train", "style")
     if not idx:
         raise ValueError(f"{data_dir}: no Bandai-2 train clips with style labels")
@@ -248,6 +264,7 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
                 f"mirrored copies), 20 fps, random {config.window}-frame windows",
         "licence": "CC BY-NC 4.0, inherited from the Bandai-Namco training data",
         "steps": run.step,
+        **({"initialised_from": init_note} if init_note else {}),
         "batch_size": config.batch_size,
         "wall_time_minutes": round(run.elapsed / 60, 1),
         "torch_threads": torch.get_num_threads(),
