@@ -97,6 +97,8 @@ def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, mon
     assert "| identity |" in table and "| stgcn |" in table and lines[-1].startswith("wrote")
     with pytest.raises(ValueError, match="unknown method"):
         list(evaluate(cache, tmp_path / "eval2", methods=["nope"]))
+    with pytest.raises(FileNotFoundError, match="other_park.safetensors"):  # --stgcn-weights is used, not the default
+        list(evaluate(cache, tmp_path / "eval3", methods=["stgcn"], stgcn_weights=tmp_path / "other_park.safetensors"))
 
 
 def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):

@@ -221,7 +221,7 @@ def cmd_evaluate(args) -> None:
     from video2style.evaluate import evaluate
 
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
-                         learn_seconds=args.learn_seconds, examples_pool=args.examples_pool):
+                         learn_seconds=args.learn_seconds, examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights):
         print(line)
 
 
@@ -390,7 +390,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"],
                     help="identity, stgcn, stgcn-raw, ours, ours-no-ls, ours-no-pp, ours-no-pair, ours-k150, ours-k600 (default: %(default)s)")
     ev.add_argument("--learn-seconds", type=_positive, help="fine-tuning budget per style example (default: 30 quick, 60 full)")
-    ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default: 1 quick, all full)")
+    ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
+    ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
     ev.add_argument("--seed", type=int, default=0)
     ev.set_defaults(func=cmd_evaluate)
     return p

@@ -97,8 +97,9 @@ class OnTheFly:
         return apply_style_features(model, self.m.prior, self.neutral[key], self.config, self.config.transfer_step, self.seed)
 
 
-def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: int = 0, say=print) -> tuple[dict, dict]:
-    """``({name: method}, {name: OnTheFly})`` for the requested method names."""
+def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: int = 0, say=print,
+                  stgcn_weights: Path | None = None) -> tuple[dict, dict]:
+    """``({name: method}, {name: OnTheFly})`` for the requested method names (``stgcn_weights``: default the shipped ones)."""
     from transfer.dataset import MotionDataset
     from transfer.evaluation import identity_transfer
     from transfer.style import StyleConfig
@@ -115,7 +116,7 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
             from transfer.park.infer import park_method
             from video2style.stgcn import load_stylizer
 
-            method = park_method(load_stylizer(), seed)
+            method = park_method(load_stylizer(stgcn_weights), seed)
             methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std, from_positions=True)
         else:
             from video2style.pipeline import load_models
@@ -129,7 +130,8 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
 
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
-             learn_seconds: float | None = None, examples_pool: int | None = None, say=print) -> Iterator[str]:
+             learn_seconds: float | None = None, examples_pool: int | None = None, say=print,
+             stgcn_weights: Path | None = None) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md`` and ``rows.json``; yields the report lines."""
     from transfer.evaluation import format_table, run_protocol
 
@@ -140,7 +142,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
-    fns, learners = build_methods(names, data_dir, learn_seconds, seed, say)
+    fns, learners = build_methods(names, data_dir, learn_seconds, seed, say, stgcn_weights)
     rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool)
     for row in rows:
         learner = learners.get(row["method"])
