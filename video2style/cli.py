@@ -185,13 +185,12 @@ def cmd_train_park(args) -> None:
 
     import torch
 
-    from transfer.park.losses import LossWeights
     from transfer.park.train import ParkTrainConfig, train_park
 
     explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed", "ds_decay_steps") if getattr(args, k) is not None}
     config = ParkTrainConfig(**explicit)
     if args.lambda_ds is not None:
-        config.weights = LossWeights(ds=args.lambda_ds)
+        config.weights = dataclasses.replace(config.weights, ds=args.lambda_ds)
         explicit["weights"] = dataclasses.asdict(config.weights)
     if args.init is not None and not args.init.is_file():
         raise SystemExit(f"error: {args.init}: no such weights file (--init)")
