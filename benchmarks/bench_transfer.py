@@ -43,7 +43,6 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
-    from transfer.apply import strength_to_step
     from transfer.style import Style, style_model
     from video2style.pipeline import apply_file, learn_file, load_models
 
@@ -60,12 +59,11 @@ def main() -> None:
         learn_s = time.perf_counter() - t0
         size = (work / "elderly.v2s").stat().st_size
         print(f"learn ({args.seconds:g} s 720p video, pose included): {learn_s:.1f} s "
-              f"({summary['iterations']} fine-tuning iterations; content read as {summary['content']!r})  target <= 90 s")
+              f"({summary['iterations']} fine-tuning iterations; content read as {summary['content']!r})  target <= 60 s")
         print(f"style file: {size / 1024:.0f} KiB  target <= 1024 KiB")
 
         style = Style.load(work / "elderly.v2s")
         model = style_model(load_models().prior, style)
-        step = strength_to_step(0.5)
         for label, kw in [("apply, no preview", {"preview": False, "neutralize": "never"}),
                           ("apply, content recognised first (auto)", {"preview": False, "neutralize": "auto"}),
                           ("apply, neutralised first (styled content)", {"preview": False, "neutralize": "always"}),
@@ -73,7 +71,7 @@ def main() -> None:
             times = []
             for _ in range(args.repeats):
                 t0 = time.perf_counter()
-                apply_file(style, model, bvh, work / "out", step, **kw)
+                apply_file(style, model, bvh, work / "out", 0.5, **kw)
                 times.append(time.perf_counter() - t0)
             print(f"{label} ({args.seconds:g} s clip, 30 fps BVH in and out, cleanup included): "
                   f"best {min(times):.2f} s, mean {sum(times) / len(times):.2f} s" + ("  target <= 1 s" if label.startswith("apply, no") else ""))

@@ -68,7 +68,7 @@ from lifting.fit import (
 from lifting.video import iter_frames, video_info
 from motioncore import quat
 from motioncore.ik_fit import fit_positions
-from motioncore.motion import Motion
+from motioncore.motion import Motion, Span, check_span
 from motioncore.representation import facing_angle
 from motioncore.skeleton import CANONICAL
 
@@ -118,28 +118,38 @@ class _Reporter:
             self.bar.close()
 
 
-def track(path: str | Path, progress: Progress = None, tracker: PoseTracker | None = None) -> TrackResult:
+def track(path: str | Path, progress: Progress = None, tracker: PoseTracker | None = None,
+          span: Span = (None, None)) -> TrackResult:
     """BlazePose over every frame of a video (frames are decoded one at a time).
 
+    ``span = (start, end)`` seconds: only frames with ``start <= time < end`` are tracked (None: open end).
     Raises ValueError naming the file for a missing file, one that is not a video, one without
-    frames, and one that decodes to clearly fewer frames than its header promises (truncated).
+    frames, one that decodes to clearly fewer frames than its header promises (truncated), and a
+    span that holds no frame.
     """
     path = Path(path)
+    start_s, end_s = check_span(span, str(path))
     fps, expected, width, height = video_info(path)
     tracker = tracker if tracker is not None else PoseTracker()
     tracker.reset()
     frames: list[PoseFrame] = []
     times: list[float] = []
+    decoded = 0
     bar = _Reporter(progress, expected, f"{path.name}: tracking")
     try:
         for _, time_s, frame in iter_frames(path):
+            decoded += 1
+            bar.update()
+            if (start_s is not None and time_s < start_s - 1e-9) or (end_s is not None and time_s >= end_s - 1e-9):
+                continue
             frames.append(tracker.process(frame, time_s))
             times.append(time_s)
-            bar.update()
     finally:
         bar.close()
-    if len(frames) < TRUNCATED_FRACTION * expected - 1:
-        raise ValueError(f"{path}: the video looks truncated: decoded {len(frames)} of the {expected} frames its header lists")
+    if decoded < TRUNCATED_FRACTION * expected - 1:
+        raise ValueError(f"{path}: the video looks truncated: decoded {decoded} of the {expected} frames its header lists")
+    if not frames:
+        raise ValueError(f"{path}: --start/--end select no frames (the video is {decoded / fps:.2f} s long)")
     return TrackResult(
         world=np.stack([f.world for f in frames]),
         image=np.stack([f.image for f in frames]),
@@ -272,10 +282,11 @@ def lift_track(
 
 
 def lift_video(path: str | Path, progress: Progress = None, cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
-               tracker: PoseTracker | None = None, **options) -> LiftResult:
-    """:func:`track` + :func:`lift_track` for a video file (``options`` go to :func:`lift_track`)."""
+               tracker: PoseTracker | None = None, span: Span = (None, None), **options) -> LiftResult:
+    """:func:`track` + :func:`lift_track` for a video file (``options`` go to :func:`lift_track`);
+    ``span``: ``(start, end)`` seconds of the video to use."""
     t0 = time.perf_counter()
-    result = track(path, progress, tracker)
+    result = track(path, progress, tracker, span)
     t1 = time.perf_counter()
     lifted = lift_track(result, str(path), cutoff_hz, **options)
     lifted.info["track_s"] = t1 - t0
@@ -284,8 +295,8 @@ def lift_video(path: str | Path, progress: Progress = None, cutoff_hz: float | N
 
 
 def video_to_motion(path: str | Path, progress: Progress = None, cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
-                    **options) -> Motion:
+                    span: Span = (None, None), **options) -> Motion:
     """A video of one person -> canonical :class:`Motion` at the **video's frame rate** (resample
     to 20 fps for the models). ``progress``: True for a bar in frames, a callable taking a line of
     text, or None/False. Raises ValueError (one line, naming the file) for unusable videos."""
-    return lift_video(path, progress, cutoff_hz, **options).motion
+    return lift_video(path, progress, cutoff_hz, span=span, **options).motion

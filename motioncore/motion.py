@@ -1,6 +1,7 @@
 """A motion on a skeleton: local rotations and local positions per frame."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
@@ -69,3 +70,43 @@ def mirror(motion: Motion, spec: CanonicalSpec = CANONICAL) -> Motion:
     lrot = motion.lrot[:, idx] * motion.lrot.new_tensor([1.0, 1.0, -1.0, -1.0])
     lpos = motion.lpos[:, idx] * motion.lpos.new_tensor([-1.0, 1.0, 1.0])
     return Motion(motion.skeleton, lrot, lpos, motion.fps)
+
+
+Span = tuple[float | None, float | None]  # (start, end) in seconds; None = open end
+
+
+def check_span(span: Span, source: str) -> Span:
+    """``(start, end)`` in seconds, either None (open); raises ValueError naming ``source`` when invalid."""
+    start, end = span
+    for name, v in (("--start", start), ("--end", end)):
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"{source}: {name} expected a time in seconds >= 0, got {v}")
+    if start is not None and end is not None and end <= start:
+        raise ValueError(f"{source}: --end ({end:g} s) must be after --start ({start:g} s)")
+    return span
+
+
+def trim(motion: Motion, span: Span, source: str) -> Motion:
+    """The frames of ``motion`` with ``start <= time < end`` (``span`` in seconds, None = open end)."""
+    start, end = check_span(span, source)
+    first = 0 if start is None else math.ceil(start * motion.fps - 1e-6)
+    stop = motion.num_frames if end is None else min(motion.num_frames, math.ceil(end * motion.fps - 1e-6))
+    if first >= stop:
+        raise ValueError(f"{source}: --start/--end select no frames (the clip is {motion.duration:.2f} s long)")
+    return motion.slice(first, stop)
+
+
+def time_warp(motion: Motion, tempo: float) -> Motion:
+    """The same poses played ``tempo`` times as fast (0.8: 25 % more frames, slower), same fps and path."""
+    if not (math.isfinite(tempo) and 0.25 <= tempo <= 4):
+        raise ValueError(f"time_warp: expected a tempo from 0.25 to 4, got {tempo}")
+    warped = resample(motion, motion.fps / tempo)
+    return Motion(motion.skeleton, warped.lrot, warped.lpos, motion.fps)
+
+
+def root_speed(motion: Motion) -> float:
+    """Mean horizontal speed of the root (m/s): the length of its ground path over the clip's duration."""
+    xz = motion.lpos[:, 0, [0, 2]].double()
+    if xz.shape[0] < 2:
+        return 0.0
+    return float((xz[1:] - xz[:-1]).norm(dim=-1).sum() / ((xz.shape[0] - 1) / motion.fps))

@@ -95,6 +95,7 @@ def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, mon
     stgcn.load_stylizer.cache_clear()
     table = (tmp_path / "eval" / "table.md").read_text()
     assert "| identity |" in table and "| stgcn |" in table and lines[-1].startswith("wrote")
+    assert (tmp_path / "eval" / "tradeoff.png").stat().st_size > 1000 and "target-style FMD" in table
     with pytest.raises(ValueError, match="unknown method"):
         list(evaluate(cache, tmp_path / "eval2", methods=["nope"]))
     with pytest.raises(FileNotFoundError, match="other_park.safetensors"):  # --stgcn-weights is used, not the default

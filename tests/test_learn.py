@@ -11,7 +11,7 @@ from tests.synthetic_cache import write_synthetic_cache
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.motion_encoder import MotionEncoder, MotionEncoderConfig
-from transfer.style import StyleConfig, learn_style, style_model
+from transfer.style import StyleConfig, learn_style, partial_reason, style_model
 
 
 class HashedText:
@@ -38,7 +38,7 @@ def toys(tmp_path_factory):
 
 
 def _config(**kw):
-    return StyleConfig(iterations=4, max_seconds=30, pair_steps=3, transfer_steps=2, content_batch=2, window=24, **kw)
+    return StyleConfig(iterations=4, pair_steps=3, transfer_steps=2, content_batch=2, window=24, **kw)
 
 
 def test_learn_style_trains_only_adapters_and_records_metadata(toys):
@@ -49,6 +49,7 @@ def test_learn_style_trains_only_adapters_and_records_metadata(toys):
     style, info = learn_style(prior, encoder, text, data, example, "elderly", "walk", _config())
     assert all(torch.equal(before[k], v) for k, v in prior.state_dict().items())  # the prior is untouched
     assert style.meta["iterations"] == 4 and style.meta["content"] == "a person walks"
+    assert style.meta["stopped_by"] == "iterations" and len(style.meta["loss_rec"]) == len(style.meta["loss_s"]) == 4
     assert info["pair"].shape == example.shape and len(info["history"]) == 4
     assert all(torch.isfinite(torch.tensor(h)).all() for h in info["history"])
     assert any(k.endswith("lora_b") and v.abs().max() > 0 for k, v in style.adapters.items())  # adapters moved from zero
@@ -89,3 +90,44 @@ def test_evaluation_method_learns_once_per_example(toys):
     assert len(method.learn_seconds) == 1  # the second call reused the learned style
     method(content, test.clip(2), "elderly", "walk")  # (clip 1 is clip 0's mirrored copy: same features here)
     assert len(method.learn_seconds) == 2
+
+
+def test_learning_budget_is_iterations_and_a_time_cap_is_reported(toys, monkeypatch):
+    prior, encoder, text, cache = toys
+    data = MotionDataset(cache, "train")
+    # a busy machine: every clock reading is 10 s later than the last; without a cap it changes nothing
+    clock = iter(range(0, 10**6, 10))
+    monkeypatch.setattr("transfer.style.time.time", lambda: float(next(clock)))
+    slow, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
+    monkeypatch.undo()
+    quick, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
+    assert slow.meta["iterations"] == quick.meta["iterations"] == 4
+    assert all(torch.equal(slow.adapters[k], quick.adapters[k]) for k in quick.adapters)
+    assert partial_reason(quick.meta, min_iterations=4) is None
+    assert "only 4 fine-tuning iterations, fewer than the 5" in partial_reason(quick.meta, min_iterations=5)
+    capped, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config(max_seconds=1e-9))
+    assert capped.meta["iterations"] == 0 and capped.meta["stopped_by"] == "time"
+    assert "cut short by the time cap" in partial_reason(capped.meta, min_iterations=0)
+
+
+def test_variants_that_learn_alike_share_their_styles(toys):
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from video2style.evaluate import OnTheFly
+
+    prior, encoder, text, cache = toys
+    data, test = MotionDataset(cache, "train"), MotionDataset(cache, "test")
+    models = SimpleNamespace(prior=prior, motion_encoder=encoder, text_encoder=text)
+    shared = {}
+    regen = OnTheFly(models, data, _config(), shared=shared)
+    diff = OnTheFly(models, data, _config(apply_mode="difference"), strength=0.0, shared=shared)
+    other = OnTheFly(models, data, replace(_config(), lambda_p=0.0), shared=shared)
+    content, style = test.clip(3), test.clip(0)
+    regen(content, style, "elderly", "walk")
+    out = diff(content, style, "elderly", "walk")
+    assert len([k for k in shared if k.startswith("style")]) == 1  # the difference variant reused the style
+    assert torch.allclose(out, diff._neutral(content), atol=1e-5)  # strength 0: the content as it came in
+    other(content, style, "elderly", "walk")
+    assert len([k for k in shared if k.startswith("style")]) == 2  # another loss: learned again
+    assert regen.learn_seconds and diff.learn_seconds and diff.iterations == [4]

@@ -9,7 +9,13 @@ import torch
 from motioncore.bvh import read_bvh
 from transfer.style import Style, StyleConfig, style_model
 from video2style.demo import SAMPLES
-from video2style.pipeline import WEIGHTS, apply_file, learn_file, load_models
+from video2style.pipeline import (
+    WEIGHTS,
+    PartialStyleError,
+    apply_file,
+    learn_file,
+    load_models,
+)
 
 pytestmark = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 
@@ -25,16 +31,38 @@ def one_thread():
 def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))  # use the bundled content bank
     lines = []
-    config = StyleConfig(iterations=2, pair_steps=3, max_seconds=30)
-    summary = learn_file(SAMPLES / "walk_prior.bvh", tmp_path / "old.v2s", "old", None, config, progress=lines.append)
-    assert summary["iterations"] == 2 and summary["bytes"] < 1024 * 1024
+    config = StyleConfig(iterations=2, pair_steps=3)
+    with pytest.raises(PartialStyleError, match="only 2 fine-tuning iterations"):  # too few to show: refused
+        learn_file(SAMPLES / "walk_prior.bvh", tmp_path / "old.v2s", "old", None, config, progress=lines.append)
+    assert not (tmp_path / "old.v2s").exists()
+    summary = learn_file(SAMPLES / "walk_prior.bvh", tmp_path / "old.v2s", "old", None, config, progress=lines.append,
+                         allow_partial=True)
+    assert summary["iterations"] == 2 and summary["bytes"] < 1024 * 1024 and "only 2" in summary["partial"]
     assert any("content bank" in line for line in lines) and any("retrieval" in line for line in lines)
     style = Style.load(tmp_path / "old.v2s")
     assert style.meta["style"] == "old" and style.example is not None
+    assert style.meta["iterations"] == 2 and len(style.meta["loss_rec"]) == 2 and style.meta["partial"]
     model = style_model(load_models().prior, style)
-    info = apply_file(style, model, SAMPLES / "run_prior.bvh", tmp_path / "out", 300, preview=False, neutralize="never")
+    info = apply_file(style, model, SAMPLES / "run_prior.bvh", tmp_path / "out", 0.5, preview=False, neutralize="never")
     out, _ = read_bvh(Path(info["output"]))
     src, _ = read_bvh(SAMPLES / "run_prior.bvh")
     assert out.skeleton.names == src.skeleton.names and out.num_frames == src.num_frames and out.fps == src.fps
     assert 0.0 <= info["skating_after"] <= info["skating_before"] + 1e-6
     assert torch.isfinite(out.lrot).all()
+
+
+def test_learn_command_refuses_a_partial_style_in_one_line(tmp_path, monkeypatch, capsys):
+    from video2style.cli import main
+
+    monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))
+    out = tmp_path / "old.v2s"
+    argv = ["learn", str(SAMPLES / "walk_prior.bvh"), "--style", "old", "-o", str(out), "--iterations", "3"]
+    assert main(argv) == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and "it/s" not in ln and "%|" not in ln]
+    assert len(err) == 1 and "only 3 fine-tuning iterations" in err[0] and "--allow-partial" in err[0]
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+    # a time cap that cuts learning short is said too, and --allow-partial keeps the file with a warning
+    assert main([*argv[:-2], "--max-seconds", "0.001", "--allow-partial"]) == 0
+    assert "cut short by the time cap" in capsys.readouterr().err and Style.load(out).meta["stopped_by"] == "time"
+    assert main(["learn", str(SAMPLES / "walk_prior.bvh"), "-o", str(out), "--start", "3", "--end", "1"]) == 1
+    assert "must be after --start" in capsys.readouterr().err

@@ -132,3 +132,46 @@ def test_cleanup_removes_sliding_of_a_planted_foot():
     assert p_before[:, 0].std() > 0.01 and p_after[:, 0].std() < 1e-3
     assert foot_contacts(still.global_positions(), m.fps).all()
     assert encode(out).shape == (m.num_frames, FEATURES.dim)
+
+
+def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
+    from transfer.apply import strength_settings
+
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    x = torch.randn(90, FEATURES.dim)
+    diff = StyleConfig(apply_mode="difference")
+    assert strength_settings(0.0, diff) == (300, 0.0) and strength_settings(0.5, diff) == (300, 1.0)
+    assert strength_settings(0.5, StyleConfig()) == (300, 1.0)
+    assert torch.allclose(apply_style_features(model, prior, x, StyleConfig(apply_mode="difference", style_scale=0.0), 300), x,
+                          atol=1e-6)
+    one = apply_style_features(model, prior, x, diff, 300)
+    two = apply_style_features(model, prior, x, StyleConfig(apply_mode="difference", style_scale=2.0), 300)
+    assert torch.allclose(two - x, 2 * (one - x), atol=1e-5)  # linear in the scale: strength moves monotonically
+    # the same style through the prior alone: no difference at all
+    assert torch.allclose(apply_style_features(prior, prior, x, diff, 300), x, atol=1e-6)
+
+
+def test_style_guidance_weight_one_is_the_style_model():
+    from transfer.style import StyleGuided
+
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    x, t = torch.randn(1, 12, FEATURES.dim), torch.tensor([200])
+    assert torch.equal(StyleGuided(prior, model, 1.0)(x, t), model(x, t))
+    p, s = prior(x, t), model(x, t)
+    assert torch.allclose(StyleGuided(prior, model, 2.0)(x, t), p + 2 * (s - p), atol=1e-6)
+
+
+def test_reading_neutralises_only_confident_styled_clips():
+    from transfer.apply import Reading
+
+    def reading(similarity, p_content, p_styled):
+        return Reading("walk", "elderly", p_content, p_styled, similarity, ())
+
+    assert reading(0.88, 0.7, 0.95).should_neutralize()
+    assert not reading(0.88, 0.7, 0.3).should_neutralize()  # a normal clip
+    assert not reading(0.70, 0.7, 0.99).should_neutralize()  # a foreign clip: far from every caption
+    assert not reading(0.88, 0.2, 0.99).should_neutralize()  # content unclear
+    assert reading(0.70, 0.2, 0.1).should_neutralize("always") and not reading(0.88, 0.7, 0.95).should_neutralize("never")
+    assert "not confident" in reading(0.70, 0.7, 0.99).describe()

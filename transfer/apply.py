@@ -1,6 +1,8 @@
 """Applying a learned style to canonical content motions of any length."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 
 from motioncore.cleanup import cleanup_feet
@@ -18,6 +20,20 @@ def strength_to_step(strength: float) -> int:
     if not 0 < strength <= 1:
         raise ValueError(f"strength: expected a number in (0, 1], got {strength}")
     return max(1, min(MAX_STEP, round(600 * strength)))
+
+
+def strength_settings(strength: float, config: StyleConfig) -> tuple[int, float]:
+    """``--strength`` -> ``(K, scale)`` for :func:`transfer.style.stylize` under the style's ``apply_mode``.
+
+    regenerate: K = 600 * strength (0.5 -> 300, the paper's), the scale from the style's config;
+    difference: K from the style's config, scale = 2 * strength (0 -> the content unchanged,
+    0.5 -> the learned difference, 1 -> twice it).
+    """
+    if config.apply_mode == "difference":
+        if not 0 <= strength <= 1:
+            raise ValueError(f"strength: expected a number in [0, 1], got {strength}")
+        return config.transfer_step, 2.0 * strength * config.style_scale
+    return strength_to_step(strength), config.style_scale
 
 
 def window_starts(n: int, window: int, overlap: int) -> list[int]:
@@ -45,16 +61,60 @@ def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Te
     return out / total.clamp_min(1e-6)
 
 
-def classify_caption(motion_encoder, text_encoder, x: torch.Tensor) -> tuple[str, str, list[tuple[str, float]]]:
-    """Nearest (content, style) caption of a normalised motion ``(T, D)`` in the motion encoder's space."""
+# Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
+# Bandai val original has a top similarity >= 0.82 and P(content) >= 0.5 at the 5th percentile; foreign clips
+# (fair1, Xia) reach at most 0.73 and 0.31; P(styled) >= 0.8 flags all styled val clips and no normal one.
+CONFIDENT_SIMILARITY = 0.78
+CONFIDENT_CONTENT = 0.4
+CONFIDENT_STYLED = 0.8
+ENCODER_TEMPERATURE = 0.07  # the motion encoder's contrastive temperature (EncoderTrainConfig)
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What the motion encoder reads in a clip: the nearest content and style captions and how sure it is."""
+
+    content: str
+    style: str
+    p_content: float  # softmax mass of the content over the 70 (content, style) captions
+    p_styled: float  # softmax mass of every style but normal
+    similarity: float  # cosine similarity of the nearest caption
+    top: tuple[tuple[str, float], ...]  # the three nearest captions and their similarities
+
+    @property
+    def confident(self) -> bool:
+        """In the prior's world: a known content, recognised clearly (foreign clips are not)."""
+        return self.similarity >= CONFIDENT_SIMILARITY and self.p_content >= CONFIDENT_CONTENT
+
+    def should_neutralize(self, mode: str = "auto") -> bool:
+        """``auto``: only a confident reading of a styled clip; ``always``/``never``."""
+        if mode not in ("auto", "always", "never"):
+            raise ValueError(f"neutralize: expected auto, always or never, got {mode!r}")
+        if mode != "auto":
+            return mode == "always"
+        return self.confident and self.p_styled >= CONFIDENT_STYLED
+
+    def describe(self) -> str:
+        sure = "confident" if self.confident else "not confident: unlike the training clips"
+        return (f"{self.content}/{self.style} (similarity {self.similarity:.2f}, P(content) {self.p_content:.2f}, "
+                f"P(styled) {self.p_styled:.2f}; {sure})")
+
+
+def read_motion(motion_encoder, text_encoder, x: torch.Tensor) -> Reading:
+    """The :class:`Reading` of a normalised motion ``(T, D)`` (its first 8 s) in the motion encoder's space."""
+    if x.ndim != 2 or x.shape[1] != FEATURES.dim:
+        raise ValueError(f"read_motion: expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
     emb = text_encoder.encode([caption(c, s) for c, s in pairs])
     with torch.no_grad():
         z = motion_encoder(x[None, : min(x.shape[0], 160)])[0]
     sims = emb @ z
-    order = sims.argsort(descending=True).tolist()
-    c, s = pairs[order[0]]
-    return c, s, [(caption(*pairs[i]), float(sims[i])) for i in order[:3]]
+    p = torch.softmax(sims / ENCODER_TEMPERATURE, 0).reshape(len(BANDAI2_CONTENTS), len(STYLES))
+    p_content, p_style = p.sum(1), p.sum(0)
+    ci, si = int(p_content.argmax()), int(p_style.argmax())
+    order = sims.argsort(descending=True).tolist()[:3]
+    return Reading(BANDAI2_CONTENTS[ci], STYLES[si], float(p_content[ci]), float(1 - p_style[STYLES.index("normal")]),
+                   float(sims.max()), tuple((caption(*pairs[i]), float(sims[i])) for i in order))
 
 
 def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], torch.Tensor]:
@@ -83,7 +143,7 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)
-    chunks = list(stylize(model, scheduler, parts, config, torch.Generator().manual_seed(seed), step=step))
+    chunks = list(stylize(model, scheduler, parts, config, torch.Generator().manual_seed(seed), step=step, prior=prior))
     return crossfade(chunks, starts, x.shape[0])
 
 

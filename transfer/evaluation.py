@@ -44,7 +44,6 @@ from transfer.metrics import (
     foot_contact_agreement,
     foot_skating_ratio,
     frechet_distance,
-    recognition_accuracy,
 )
 
 Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
@@ -64,14 +63,14 @@ class Transfer:
     target_style: str
 
 
-def protocol_clips(records: Sequence[ClipRecord]) -> list[int]:
-    """Indices of the protocol's clips: Bandai-2, test split, not mirrored."""
-    return [i for i, r in enumerate(records) if r.dataset == "bandai2" and r.split == "test" and not r.mirrored]
+def protocol_clips(records: Sequence[ClipRecord], split: str = "test") -> list[int]:
+    """Indices of the protocol's clips: Bandai-2, the given split (test; val for choosing settings), not mirrored."""
+    return [i for i, r in enumerate(records) if r.dataset == "bandai2" and r.split == split and not r.mirrored]
 
 
 def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: int = 0,
                     per_content: int | None = None, examples_per_style: int | None = None,
-                    examples_pool: int | None = None) -> list[Transfer]:
+                    examples_pool: int | None = None, split: str = "test") -> list[Transfer]:
     """The seeded list of transfers (see the module doc); counts default to ``QUICK`` or ``FULL``.
 
     ``examples_pool``: draw each style's examples from a fixed seeded subset of this many of its
@@ -81,9 +80,9 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
     per_content = sizes["per_content"] if per_content is None else per_content
     examples = sizes["examples_per_style"] if examples_per_style is None else examples_per_style
     rng = random.Random(seed)
-    pool = protocol_clips(records)
+    pool = protocol_clips(records, split)
     if not pool:
-        raise ValueError("select_protocol: no non-mirrored Bandai-2 test clips in the cache")
+        raise ValueError(f"select_protocol: no non-mirrored Bandai-2 {split} clips in the cache")
     cells: dict[tuple[str, str], list[int]] = {}
     for i in pool:
         cells.setdefault((records[i].content, records[i].style), []).append(i)
@@ -146,10 +145,13 @@ class _Scorer:
     def score(self, raw: list[torch.Tensor], contents: list[str], styles: list[str]) -> dict:
         feats = run_batched(self.content_clf, [self.content_clf.normalize(x) for x in raw], "features")
         content_pred = self.content_clf.eval().head(feats).argmax(-1)  # = recognition_accuracy, one pass fewer
+        style_feats = run_batched(self.style_clf, [self.style_clf.normalize(x) for x in raw], "features")
+        style_pred = self.style_clf.eval().head(style_feats).argmax(-1)
         return {
             "features": feats,
+            "style_features": style_feats,
             "cra": float((content_pred == self.content_clf.label_index(contents)).float().mean()),
-            "sra": recognition_accuracy(self.style_clf, [self.style_clf.normalize(x) for x in raw], styles),
+            "sra": float((style_pred == self.style_clf.label_index(styles)).float().mean()),
             "skating": foot_skating_ratio([decode_positions(x.double()) for x in raw], self.fps),
         }
 
@@ -157,23 +159,28 @@ class _Scorer:
 def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True, seed: int = 0,
                  content_classifier: Path | None = None, style_classifier: Path | None = None,
                  per_content: int | None = None, examples_per_style: int | None = None, progress: bool = True,
-                 examples_pool: int | None = None) -> list[dict]:
+                 examples_pool: int | None = None, split: str = "test") -> list[dict]:
     """Run every method on the protocol's transfers; returns one row per method plus the real-data reference row first.
 
-    Row keys: ``method``, ``transfers``, ``fmd``, ``cra``, ``sra``, ``skating``,
+    Row keys: ``method``, ``transfers``, ``fmd``, ``fmd_style``, ``cra``, ``sra``, ``skating``,
     ``contact_agreement``, ``sec_per_transfer``, ``seconds`` (the method's transfer time in all).
+    ``fmd_style``: for each target style S, the Fréchet distance between the style classifier's features of
+    the outputs for S and of the real clips of style S, averaged over S (a style-aware FMD).
+    ``split``: "test" to report; "val" to choose settings.
     """
-    data = MotionDataset(data_dir, split="test")
+    data = MotionDataset(data_dir, split=split)
     content_clf = load_classifier(content_classifier or default_weights("content"))
     style_clf = load_classifier(style_classifier or default_weights("style"))
     fps = 20.0
     scorer = _Scorer(content_clf, style_clf, fps)
-    items = select_protocol(data.records, quick, seed, per_content, examples_per_style, examples_pool)
+    items = select_protocol(data.records, quick, seed, per_content, examples_per_style, examples_pool, split)
 
-    real_idx = protocol_clips(data.records)
+    real_idx = protocol_clips(data.records, split)
     real_raw = [data.clip(i, normalized=False) for i in real_idx]
-    real = scorer.score(real_raw, [data.records[i].content for i in real_idx], [data.records[i].style for i in real_idx])
-    rows = [{"method": "real test clips (reference)", "transfers": len(real_idx), "fmd": None, "cra": real["cra"],
+    real_styles = [data.records[i].style for i in real_idx]
+    real = scorer.score(real_raw, [data.records[i].content for i in real_idx], real_styles)
+    rows = [{"method": f"real {split} clips (reference)", "transfers": len(real_idx), "fmd": None, "fmd_style": None,
+             "cra": real["cra"],
              "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None}]
 
     for name, method in methods.items():
@@ -189,6 +196,7 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
             "method": name,
             "transfers": len(items),
             "fmd": frechet_distance(real["features"], gen["features"]),
+            "fmd_style": style_fmd(real["style_features"], real_styles, gen["style_features"], [it.target_style for it in items]),
             "cra": gen["cra"],
             "sra": gen["sra"],
             "skating": gen["skating"],
@@ -199,16 +207,31 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
     return rows
 
 
+def style_fmd(real_feats: torch.Tensor, real_styles: Sequence[str], gen_feats: torch.Tensor,
+              gen_styles: Sequence[str]) -> float | None:
+    """Mean over target styles S of the Fréchet distance between the generated and the real features of S
+    (``(N, F)`` and ``(M, F)`` with their style labels); styles with fewer than two outputs are skipped."""
+    values = []
+    for s in sorted(set(gen_styles)):
+        g = gen_feats[[i for i, x in enumerate(gen_styles) if x == s]]
+        r = real_feats[[i for i, x in enumerate(real_styles) if x == s]]
+        if len(g) >= 2 and len(r) >= 2:
+            values.append(frechet_distance(r, g))
+    return sum(values) / len(values) if values else None
+
+
 def format_table(rows: Sequence[dict]) -> str:
     """Markdown table of :func:`run_protocol` rows (accuracies and ratios in %)."""
     def num(v, fmt):
         return "–" if v is None else format(v, fmt)
 
-    lines = ["| method | transfers | FMD ↓ | CRA ↑ (%) | SRA ↑ (%) | foot skating (%) | contact agreement (%) | s / transfer |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [("| method | transfers | FMD ↓ | target-style FMD ↓ | CRA ↑ (%) | SRA ↑ (%) | foot skating (%) | "
+             "contact agreement (%) | s / transfer |"),
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         pct = {k: None if r.get(k) is None else 100 * r[k] for k in ("cra", "sra", "skating", "contact_agreement")}
-        lines.append(f"| {r['method']} | {r['transfers']} | {num(r.get('fmd'), '.2f')} | {num(pct['cra'], '.1f')} | "
+        lines.append(f"| {r['method']} | {r['transfers']} | {num(r.get('fmd'), '.2f')} | {num(r.get('fmd_style'), '.2f')} | "
+                     f"{num(pct['cra'], '.1f')} | "
                      f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
                      f"{num(r.get('sec_per_transfer'), '.4f')} |")
     return "\n".join(lines)

@@ -20,6 +20,8 @@ from pathlib import Path
 import torch
 from safetensors import safe_open
 from safetensors.torch import load_file, save_file
+from torch.profiler import record_function
+from tqdm import tqdm
 
 from motioncore.representation import FEATURES
 from transfer.captions import caption
@@ -28,6 +30,7 @@ from transfer.sampling import denoise, overwrite
 from transfer.scheduler import DiffusionScheduler
 
 TRAJECTORY = [FEATURES.root_rvel, FEATURES.root_lvel]  # inpainted: the root's path on the ground
+MIN_ITERATIONS = 50  # fewer and the style barely shows (benchmarks/learn_iterations.py, docs/RESULTS.md)
 
 
 @dataclass
@@ -39,14 +42,17 @@ class StyleConfig:
     transfer_steps: int = 6  # DDIM steps from K to 0 (K = 300 with 20 steps over 1000)
     rank: int = 8
     lr: float = 2e-3
-    iterations: int = 150
-    max_seconds: float = 60.0
+    iterations: int = 150  # the budget: the same example and seed give the same style on any machine
+    max_seconds: float | None = None  # optional wall-clock cap on the whole learning; None = no cap
     lambda_s: float = 0.1
     content_batch: int = 8
     window: int = 80
     seed: int = 0
     pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
     lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
+    apply_mode: str = "regenerate"  # regenerate: the style model redraws the content from step K;
+    # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
+    style_scale: float = 1.0  # difference mode: the scale of the style's difference; regenerate: guidance weight
 
 
 @dataclass
@@ -102,13 +108,45 @@ def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torc
                    inpaint=(x, TRAJECTORY), generator=generator)
 
 
+class StyleGuided(torch.nn.Module):
+    """``x0 = prior + w * (style - prior)``: style guidance at sampling (``w = 1``: the style model alone)."""
+
+    def __init__(self, prior, style, weight: float):
+        super().__init__()
+        self.prior, self.style, self.weight = prior, style, weight
+        self.config = style.config
+
+    def forward(self, x_t, t, text=None, valid=None):
+        x0_style = self.style(x_t, t, text, valid)
+        if self.weight == 1.0:
+            return x0_style
+        x0_prior = self.prior(x_t, t, text, valid)
+        return x0_prior + self.weight * (x0_style - x0_prior)
+
+
 def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, config: StyleConfig, generator: torch.Generator,
-            step: int | None = None) -> torch.Tensor:
-    """Apply the style model: noise normalised content ``x (B, T, D)`` K steps, denoise keeping its path."""
+            step: int | None = None, prior=None, scale: float | None = None) -> torch.Tensor:
+    """Apply the style model to normalised content ``x (B, T, D)``: noise it K steps, denoise keeping its path.
+
+    ``config.apply_mode`` "difference" (needs ``prior``): ``x + scale * (style(y) - prior(y))`` from the same
+    noisy ``y``; "regenerate": the style model's own result, guided with weight ``scale`` when a prior is given.
+    ``scale`` defaults to ``config.style_scale``.
+    """
     k = config.transfer_step if step is None else step
+    scale = config.style_scale if scale is None else scale
     noise = torch.randn(x.shape, generator=generator)
     y = overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alphas_cumprod[k].sqrt(), TRAJECTORY)
     n_steps = max(1, round(config.transfer_steps * k / config.transfer_step))
+    if config.apply_mode == "difference":
+        if prior is None:
+            raise ValueError("stylize: the difference mode needs the prior")
+        styled = denoise(model, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
+        base = denoise(prior, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
+        return x + scale * (styled - base)
+    if config.apply_mode != "regenerate":
+        raise ValueError(f"stylize: expected apply_mode 'regenerate' or 'difference', got {config.apply_mode!r}")
+    if prior is not None and scale != 1.0:
+        model = StyleGuided(prior, model, scale)
     return denoise(model, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
 
 
@@ -119,9 +157,14 @@ def _windows(n: int, window: int, count: int, generator: torch.Generator) -> lis
 
 
 def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Tensor, style_words: str, content: str,
-                config: StyleConfig, prior_path: Path | None = None, progress=None) -> tuple[Style, dict]:
+                config: StyleConfig, prior_path: Path | None = None, progress=None,
+                show_bar: bool = False) -> tuple[Style, dict]:
     """Learn a style from one normalised example ``(T, D)`` whose content is ``content`` (a Bandai content name
     or free text). ``dataset``: the prior's training cache (content motions for L_s). Returns the style and stats.
+
+    The budget is ``config.iterations``; with the same seed the adapters are the same on any machine, however
+    busy. ``config.max_seconds`` (optional) caps the wall time; when it cuts learning short, ``meta["stopped_by"]``
+    is ``"time"`` (see :func:`partial_reason`). ``show_bar``: a tqdm bar of iterations with an ETA.
     """
     if example.ndim != 2 or example.shape[1] != FEATURES.dim:
         raise ValueError(f"learn_style: expected an example (T, {FEATURES.dim}), got {tuple(example.shape)}")
@@ -151,58 +194,99 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     target_captions = sorted({dataset.records[i].caption for i in neutral})
     styled = {c: f"{c}, {style_words} style" for c in target_captions}
     target_emb = dict(zip(target_captions, text_encoder.encode([styled[c] for c in target_captions])))
+    steps = scheduler.set_timesteps(config.transfer_steps, config.transfer_step).tolist()
     history = []
-    it = 0
-    while it < config.iterations and time.time() - t0 < config.max_seconds:
-        # L_rec: the neutral pair noised K steps must denoise to the example at every step (eq. 10)
-        s = _windows(example.shape[0], config.window, 1, gen)[0]
-        m_s, m_n = example[None, s:s + config.window], pair[None, s:s + config.window]
-        y = overwrite(scheduler.add_noise(m_n, torch.randn(m_n.shape, generator=gen), config.transfer_step),
-                      m_n * scheduler.alphas_cumprod[config.transfer_step].sqrt(), TRAJECTORY)
-        loss_rec = 0.0
-        steps = scheduler.set_timesteps(config.transfer_steps, config.transfer_step).tolist()
-        for t in steps:
-            x0 = model(y, torch.tensor([t]))
-            x0 = overwrite(x0, m_s, TRAJECTORY)
-            loss_rec = loss_rec + ((x0 - m_s) ** 2).mean() / len(steps)
-            y = scheduler.step(x0.detach(), t, y)
-        # L_s: neutral content motions, stylised, must read as "<caption>, <style> style" (eq. 11)
-        idx = [neutral[i] for i in torch.randint(len(neutral), (config.content_batch,), generator=gen).tolist()]
-        xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx])
-        valid = torch.stack([_crop_mask(dataset.records[i].length, config.window) for i in idx])
-        t = steps[int(torch.randint(len(steps), (1,), generator=gen))]
-        y_c = overwrite(scheduler.add_noise(xs, torch.randn(xs.shape, generator=gen), t), xs * scheduler.alphas_cumprod[t].sqrt(), TRAJECTORY)
-        x0_c = overwrite(model(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
-        z = motion_encoder(x0_c * valid[..., None], valid)
-        target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
-        loss_s = (1 - (z * target).sum(-1)).mean()
+    it, stopped_by = 0, "iterations"
+    bar = tqdm(total=config.iterations, desc="      fine-tuning", unit="it", disable=not show_bar, leave=False)
+    while it < config.iterations:
+        if config.max_seconds is not None and time.time() - t0 >= config.max_seconds:
+            stopped_by = "time"
+            break
+        with record_function("learn: L_rec"):
+            s = _windows(example.shape[0], config.window, 1, gen)[0]
+            loss_rec = reconstruction_loss(model, scheduler, pair[None, s:s + config.window],
+                                           example[None, s:s + config.window], config, gen)
+        with record_function("learn: L_s"):  # neutral content, stylised, must read as "<caption>, <style> style" (eq. 11)
+            idx = [neutral[i] for i in torch.randint(len(neutral), (config.content_batch,), generator=gen).tolist()]
+            xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx])
+            valid = torch.stack([_crop_mask(dataset.records[i].length, config.window) for i in idx])
+            t = steps[int(torch.randint(len(steps), (1,), generator=gen))]
+            y_c = overwrite(scheduler.add_noise(xs, torch.randn(xs.shape, generator=gen), t),
+                            xs * scheduler.alphas_cumprod[t].sqrt(), TRAJECTORY)
+            x0_c = overwrite(model(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
+            z = motion_encoder(x0_c * valid[..., None], valid)
+            target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
+            loss_s = (1 - (z * target).sum(-1)).mean()
         loss = loss_rec + config.lambda_s * loss_s
         if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
-            with torch.no_grad():
+            with record_function("learn: prior preservation"), torch.no_grad():
                 x0_p = overwrite(prior(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
             w = valid[..., None].to(x0_c.dtype)
             loss = loss + config.lambda_p * (((x0_c - x0_p) ** 2) * w).sum() / (w.sum() * x0_c.shape[-1])
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
+        with record_function("learn: backward + step"):
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
         it += 1
         history.append((loss_rec.item(), loss_s.item()))
-        if it % 10 == 0:
-            say(f"fine-tuning: iteration {it}, L_rec {loss_rec.item():.4f}, L_s {loss_s.item():.4f}")
+        bar.update(1)
+        bar.set_postfix(L_rec=f"{history[-1][0]:.4f}", L_s=f"{history[-1][1]:.4f}")
+    bar.close()
     model.eval()
     meta = {
         "style": style_words,
         "content": neutral_text,
         "config": asdict(config),
         "iterations": it,
+        "iterations_planned": config.iterations,
+        "stopped_by": stopped_by,
         "seconds": round(time.time() - t0, 1),
         "example_frames": int(example.shape[0]),
         "loss_rec_first_last": [history[0][0], history[-1][0]] if history else None,
         "loss_s_first_last": [history[0][1], history[-1][1]] if history else None,
+        "loss_rec": [float(f"{h[0]:.5g}") for h in history],
+        "loss_s": [float(f"{h[1]:.5g}") for h in history],
         "base_model_sha256": file_sha256(prior_path) if prior_path else None,
         "rank": config.rank,
     }
     return Style(lora_state(model), meta), {"pair": pair, "history": history}
+
+
+def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:
+    """Why a learned style is not a complete one (a one-line reason), or None when it is."""
+    done, planned = int(meta.get("iterations", 0)), int(meta.get("iterations_planned", meta.get("iterations", 0)))
+    if meta.get("stopped_by") == "time":
+        cap = meta.get("config", {}).get("max_seconds")
+        return (f"learning was cut short by the time cap ({cap:g} s) after {done} of {planned} iterations"
+                + (f", fewer than the {min_iterations} a style needs to show" if done < min_iterations else ""))
+    if done < min_iterations:
+        return f"only {done} fine-tuning iterations, fewer than the {min_iterations} a style needs to show"
+    return None
+
+
+def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor, m_s: torch.Tensor, config: StyleConfig,
+                        generator: torch.Generator) -> torch.Tensor:
+    """L_rec (Hu et al. eq. 10): the neutral window ``m_n (1, L, D)`` noised K steps must denoise to the example
+    window ``m_s (1, L, D)`` at every DDIM step from K to 0.
+
+    Each step's input depends on the previous prediction only through a detached value, so the unroll runs
+    without gradients (and without dropout) and the model then sees all the steps' inputs in one batched pass.
+    """
+    k = config.transfer_step
+    steps = scheduler.set_timesteps(config.transfer_steps, k).tolist()
+    y = overwrite(scheduler.add_noise(m_n, torch.randn(m_n.shape, generator=generator), k),
+                  m_n * scheduler.alphas_cumprod[k].sqrt(), TRAJECTORY)
+    inputs = [y]
+    training = model.training
+    model.eval()
+    with torch.no_grad():
+        for t in steps[:-1]:
+            y = scheduler.step(overwrite(model(y, torch.tensor([t])), m_s, TRAJECTORY), t, y)
+            inputs.append(y)
+    model.train(training)
+    target = m_s.expand(len(steps), -1, -1)
+    x0 = overwrite(model(torch.cat(inputs), torch.tensor(steps)), target, TRAJECTORY)
+    return ((x0 - target) ** 2).mean()
 
 
 def _crop(x: torch.Tensor, window: int, gen: torch.Generator) -> torch.Tensor:

@@ -33,7 +33,7 @@ def find_videos(folder: Path) -> list[Path]:
     return sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in VIDEO_SUFFIXES)
 
 
-def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength_step: int, learn_config=None,
+def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
               seed: int = 0, progress=print) -> BatchReport:
     """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip>.bvh`` (+ previews)."""
     from transfer.style import Style, style_model
@@ -70,7 +70,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength_step:
                 continue
             t1 = time.time()
             try:
-                info = apply_file(style, model, clip, out_bvh.parent, strength_step, seed)
+                info = apply_file(style, model, clip, out_bvh.parent, strength, seed)
             except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
                 report.add(video=video.name, clip=clip.name, status="failed", error=str(e), seconds=time.time() - t1)
                 progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")

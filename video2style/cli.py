@@ -89,13 +89,18 @@ def cmd_learn(args) -> None:
     from video2style.pipeline import learn_file
 
     config = StyleConfig()
-    if args.seconds is not None:
-        config = replace(config, max_seconds=args.seconds)
+    if args.max_seconds is not None:
+        config = replace(config, max_seconds=args.max_seconds)
     if args.iterations is not None:
         config = replace(config, iterations=args.iterations)
+    if args.seed is not None:
+        config = replace(config, seed=args.seed)
     out = args.output or Path(args.input.stem + ".v2s")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
-    summary = learn_file(args.input, out, args.style, args.text, config, joint_map)
+    summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
+                         span=(args.start, args.end), show_bar=True)
+    if summary["partial"]:
+        print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
     print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
           f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
 
@@ -128,30 +133,40 @@ def cmd_apply(args) -> None:
             failed += 1
             print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
             continue
-        extra = f", neutralised ({info['detected']})" if info.get("neutralized") else ""
+        extra = ""
+        if info.get("detected"):
+            extra = f"; read as {info['detected']}: {'neutralised first' if info['neutralized'] else 'not neutralised'}"
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
         skate = f", foot skating {100 * info['skating_before']:.1f}% -> {100 * info['skating_after']:.1f}%" if "skating_after" in info else ""
-        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s{extra}{skate})")
+        tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
+        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
+              f"{tempo}{extra}{skate})")
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
 
 def _diffusion_runner(args, joint_map):
-    from transfer.apply import strength_to_step
     from transfer.style import Style, style_model
-    from video2style.pipeline import apply_file, load_models
+    from video2style.pipeline import apply_file, load_models, resolve_tempo
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
         raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method stgcn --domain D)")
     for flag in ("domain", "reference", "mix"):
         if getattr(args, flag) is not None:
             raise CliError(f"apply: --{flag} belongs to --method stgcn")
-    step = strength_to_step(args.strength)
+    _check_strength(args.strength)
     style = Style.load(args.style)
     model = style_model(load_models().prior, style)
     files = _bvh_inputs(args.inputs)
-    return (lambda path: apply_file(style, model, path, args.output, step, args.seed, args.neutralize, joint_map,
-                                    not args.no_preview)), files
+    if args.tempo not in ("off", "auto"):
+        resolve_tempo(style, args.tempo)  # a bad number: one line before any work
+    return (lambda path: apply_file(style, model, path, args.output, args.strength, args.seed, args.neutralize, joint_map,
+                                    not args.no_preview, args.tempo)), files
+
+
+def _check_strength(strength: float) -> None:
+    if not 0 <= strength <= 1:
+        raise CliError(f"--strength: expected a number from 0 to 1, got {strength:g}")
 
 
 def _stgcn_runner(args, joint_map):
@@ -174,7 +189,7 @@ def cmd_pose(args) -> None:
         raise CliError(f"pose: --trajectory expected auto, contacts or camera, got {args.trajectory!r}")
     out = args.output or args.video.with_suffix(".bvh")
     info = pose_file(args.video, out, args.preview, args.cutoff if args.cutoff > 0 else None, progress=not args.quiet,
-                     fov_deg=args.fov, trajectory=args.trajectory)
+                     fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end))
     print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
           f"{info['tracked_frames']}/{info['frames']} frames, trajectory from {info['trajectory']}, "
           f"{info['fps']:.1f} frames/s" + (f"; preview {info['preview']}" if info["preview"] else ""))
@@ -220,15 +235,16 @@ def cmd_evaluate(args) -> None:
     from video2style.evaluate import evaluate
 
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
-                         learn_seconds=args.learn_seconds, examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights):
+                         examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights, split=args.split,
+                         strengths=args.strengths, iterations=args.iterations):
         print(line)
 
 
 def cmd_batch(args) -> None:
-    from transfer.apply import strength_to_step
     from video2style.batch import run_batch
 
-    report = run_batch(args.videos, args.content, args.output, strength_to_step(args.strength), seed=args.seed)
+    _check_strength(args.strength)
+    report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed)
     print(report.table())
     print(f"index: {args.output / 'index.html'}")
     if report.failures:
@@ -243,7 +259,19 @@ def cmd_demo(args) -> None:
         raise CliError(f"{len(report.failures)} demo item(s) failed (see the table)")
 
 
+def _positive_int(v: str) -> int:
+    try:
+        x = int(v)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}") from None
+    if x <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
+    return x
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from transfer.style import MIN_ITERATIONS, StyleConfig
+    from video2style.evaluate import METHODS
     from video2style.paths import cache_dir, default_dataset_dir
 
     p = argparse.ArgumentParser(prog="video2style", description=__doc__, epilog=EXAMPLES,
@@ -272,14 +300,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     lr = sub.add_parser("learn", help="learn a style from a video or a BVH clip",
                         epilog="examples:\n  video2style learn old_man.mp4 --style old -o old.v2s\n"
-                               "  video2style learn strut.bvh --style strutting --text 'a person walks'",
+                               "  video2style learn strut.bvh --style strutting --text 'a person walks'\n"
+                               "  video2style learn diver.mp4 --style 'scuba diver' --start 0.6   # skip the first 0.6 s\n\n"
+                               "The budget is iterations, so the same input gives the same style file on any machine;\n"
+                               "a style learned in too few iterations is refused unless --allow-partial.",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...) or .bvh")
     lr.add_argument("--style", help="style words, e.g. 'old' (default: from the file name)")
     lr.add_argument("--text", help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
-    lr.add_argument("--seconds", type=_positive, help="fine-tuning time budget in seconds (default: 60)")
-    lr.add_argument("--iterations", type=int, help="fine-tuning iterations at most (default: 150)")
+    lr.add_argument("--iterations", type=_positive_int,
+                    help=f"fine-tuning iterations: the budget, the same on any machine (default: {StyleConfig.iterations})")
+    lr.add_argument("--max-seconds", type=_positive,
+                    help="optional wall-clock cap on learning; if it cuts learning short, learn fails unless --allow-partial")
+    lr.add_argument("--allow-partial", action="store_true",
+                    help=f"keep a style cut short by --max-seconds or learned in fewer than {MIN_ITERATIONS} iterations")
+    lr.add_argument("--seed", type=int, help=f"random seed (default: {StyleConfig.seed})")
+    lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
+    lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name (BVH input)")
     lr.set_defaults(func=cmd_learn)
 
@@ -294,7 +332,12 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("-o", "--output", type=Path, required=True, help="output folder")
     ap.add_argument("--method", choices=["diffusion", "stgcn"], default="diffusion",
                     help="diffusion: a learned style file (default); stgcn: Park et al. 2021, style from a domain")
-    ap.add_argument("--strength", type=float, default=0.5, help="0..1, how much of the content is redrawn (default: %(default)s = K 300)")
+    ap.add_argument("--strength", type=float, default=0.5,
+                    help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
+                         "at some cost to the content (docs/RESULTS.md has the trade-off curve)")
+    ap.add_argument("--tempo", default="off",
+                    help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
+                         "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                     help="neutralise styled content first (auto: when the motion encoder recognises a style)")
@@ -316,6 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("--cutoff", type=float, default=3.0, help="Butterworth low-pass cutoff in Hz, 0 = off (default: %(default)s)")
     po.add_argument("--fov", type=float, default=60.0, help="assumed horizontal field of view in degrees (default: %(default)s)")
     po.add_argument("--trajectory", default="auto", help="root path from foot contacts, the camera model, or auto (default)")
+    po.add_argument("--start", type=float, help="lift the video from this time on, in seconds")
+    po.add_argument("--end", type=float, help="lift the video up to this time, in seconds")
     po.add_argument("-q", "--quiet", action="store_true")
     po.set_defaults(func=cmd_pose)
 
@@ -384,11 +429,15 @@ def build_parser() -> argparse.ArgumentParser:
     ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
                         epilog="example: video2style evaluate --quick --methods identity stgcn ours")
     ev.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
-    ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md and rows.json")
+    ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md, rows.json, tradeoff.png")
     ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
-    ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"],
-                    help="identity, stgcn, stgcn-raw, ours, ours-no-ls, ours-no-pp, ours-no-pair, ours-k150, ours-k600 (default: %(default)s)")
-    ev.add_argument("--learn-seconds", type=_positive, help="fine-tuning budget per style example (default: 30 quick, 60 full)")
+    ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"], metavar="METHOD",
+                    help=f"some of {', '.join(METHODS)} (default: %(default)s)")
+    ev.add_argument("--iterations", type=_positive_int, help="learning iterations per style example (default: learn's)")
+    ev.add_argument("--strengths", type=float, nargs="+", help="run each variant of ours at these --strength values "
+                    "(one row each; tradeoff.png draws the curves)")
+    ev.add_argument("--split", choices=["test", "val"], default="test",
+                    help="clips to evaluate on: val to choose settings, test to report (default: %(default)s)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
     ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
     ev.add_argument("--seed", type=int, default=0)

@@ -22,7 +22,6 @@ def sample_clips() -> list[Path]:
 
 def run_demo(out_dir: Path, say=print, samples: Path = SAMPLES):
     """Runs pose and batch on ``samples``; returns the batch report (see :mod:`video2style.batch`)."""
-    from transfer.apply import strength_to_step
     from video2style.batch import find_videos, run_batch
     from video2style.pose import pose_file
 
@@ -37,7 +36,7 @@ def run_demo(out_dir: Path, say=print, samples: Path = SAMPLES):
         info = pose_file(video, out_dir / "pose" / f"{video.stem}.bvh", out_dir / "pose" / f"{video.stem}_pose.mp4", progress=False)
         say(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames, {info['fps']:.0f} frames/s), "
             f"preview {info['preview']}")
-    report = run_batch(samples, samples, out_dir, strength_to_step(0.5), progress=say)
+    report = run_batch(samples, samples, out_dir, 0.5, progress=say)
     say(report.table())
     say(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")
     return report

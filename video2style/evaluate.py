@@ -7,15 +7,16 @@ Methods (names as on the command line):
   ``apply --method stgcn`` does (rotations fitted to its position channels, foot cleanup) and
   encoding again; ``stgcn-raw``: its output features as they come;
 - ``ours``: Hu et al.'s on-the-fly method as ``learn`` + ``apply`` run it: one style learned per
-  distinct style example (cached for the run; learning time is reported apart), content
-  neutralised when the motion encoder reads it as styled, K = 300, foot cleanup;
-- ablations: ``ours-no-ls`` (lambda_s = 0), ``ours-no-pp`` (no prior preservation: Hu et al.'s loss
-  exactly), ``ours-no-pair`` (fine-tuned from the example itself,
-  no neutral pair), ``ours-k150`` and ``ours-k600`` (other K).
+  distinct style example (cached for the run and shared by the variants that learn the same way),
+  content neutralised when the motion encoder reads it as styled, foot cleanup;
+- variants of ours (:data:`VARIANTS`): ablations of the learning loss and of how the style is applied.
 
-Learning costs a fixed budget per example (30 s quick, 60 s full by default), so style examples
-are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or 21 learned
-styles per variant of ours. Each content clip is neutralised once and reused for its six targets.
+Learning has a fixed budget of iterations per example (:class:`transfer.style.StyleConfig`), so
+style examples are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or
+21 learned styles per learning setting. Each content clip is neutralised once and reused.
+
+``strengths``: each variant of ours is also run at these ``--strength`` values (rows ``name @s``),
+and ``tradeoff.png`` plots CRA against SRA, one curve per variant.
 """
 from __future__ import annotations
 
@@ -23,24 +24,33 @@ import hashlib
 import json
 import time
 from collections.abc import Iterator
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import torch
 
+from motioncore.bvh import atomic_write_text
 from motioncore.cleanup import cleanup_feet
 from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
 
-ABLATIONS = {
+VARIANTS = {
     "ours": {},
     "ours-no-ls": {"lambda_s": 0.0},
     "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
     "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
     "ours-k600": {"transfer_step": 600, "transfer_steps": 12},
+    "ours-regen": {"apply_mode": "regenerate"},
+    "ours-diff": {"apply_mode": "difference"},
+    "ours-diff-k600": {"apply_mode": "difference", "transfer_step": 600, "transfer_steps": 12},
+    "ours-diff-no-pp": {"apply_mode": "difference", "lambda_p": 0.0},
+    "ours-diff-no-pp-k600": {"apply_mode": "difference", "lambda_p": 0.0, "transfer_step": 600, "transfer_steps": 12},
+    "ours-guided": {"apply_mode": "regenerate", "style_scale": 2.0},
 }
-METHODS = ("identity", "stgcn", "stgcn-raw", *ABLATIONS)
+METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
+APPLY_FIELDS = ("apply_mode", "style_scale")  # StyleConfig fields that do not change what is learned
+HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
 def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, from_positions: bool = False):
@@ -55,51 +65,76 @@ def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, from_positions: 
     return transfer
 
 
-class OnTheFly:
-    """Our method as a protocol method: learns (once) a style per style example, then applies it."""
+def _key(*parts) -> str:
+    h = hashlib.sha1()
+    for p in parts:
+        h.update(p.numpy().tobytes() if torch.is_tensor(p) else json.dumps(p, sort_keys=True).encode())
+    return h.hexdigest()
 
-    def __init__(self, models, content_data, config, seed: int = 0, progress=None):
-        self.m, self.data, self.config, self.seed = models, content_data, config, seed
-        self.styles: dict[str, torch.nn.Module] = {}
-        self.neutral: dict[str, torch.Tensor] = {}
+
+class OnTheFly:
+    """Our method as a protocol method: learns (once) a style per style example, then applies it.
+
+    ``shared``: a dict shared between instances, so variants that learn the same way (they differ only
+    in :data:`APPLY_FIELDS` or strength) reuse each other's styles and neutralised contents.
+    """
+
+    def __init__(self, models, content_data, config, seed: int = 0, progress=None, strength: float | None = None,
+                 shared: dict | None = None):
+        self.m, self.data, self.config, self.seed, self.strength = models, content_data, config, seed, strength
+        self.shared = shared if shared is not None else {}
         self.learn_seconds: list[float] = []
+        self.iterations: list[int] = []
         self.say = progress or (lambda s: None)
 
     def _model(self, style: torch.Tensor, style_label: str):
-        from transfer.apply import classify_caption
+        from transfer.apply import read_motion
         from transfer.style import learn_style, style_model
 
-        key = hashlib.sha1(style.numpy().tobytes()).hexdigest() + style_label
-        if key not in self.styles:
+        learn_config = {k: v for k, v in asdict(self.config).items() if k not in APPLY_FIELDS}
+        key = "style" + _key(style, style_label, learn_config)
+        if key not in self.shared:
             t0 = time.time()
-            content, _, _ = classify_caption(self.m.motion_encoder, self.m.text_encoder, style)
+            content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
             learned, _ = learn_style(self.m.prior, self.m.motion_encoder, self.m.text_encoder, self.data, style,
                                      style_label, content, self.config)
-            self.styles[key] = style_model(self.m.prior, learned)
-            self.learn_seconds.append(time.time() - t0)
-            self.say(f"learned {style_label!r} from a {content} example in {self.learn_seconds[-1]:.0f} s")
-        return self.styles[key]
+            self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
+            self.say(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
+                     f"{self.shared[key][1]:.0f} s")
+        model, seconds, iterations = self.shared[key]
+        if key not in self.__dict__.setdefault("_seen", set()):
+            self._seen.add(key)
+            self.learn_seconds.append(seconds)
+            self.iterations.append(iterations)
+        return model
 
-    def __call__(self, content, style, style_label, content_label):
-        from transfer.apply import (
-            apply_style_features,
-            classify_caption,
-            neutralize_features,
-        )
+    def _neutral(self, content: torch.Tensor) -> torch.Tensor:
+        from transfer.apply import neutralize_features, read_motion
         from transfer.captions import content_caption
 
+        pair_config = {k: getattr(self.config, k) for k in ("pair_step", "pair_steps", "guidance")}
+        key = "neutral" + _key(content, pair_config, self.seed)
+        if key not in self.shared:  # each content clip goes to six styles: neutralise it once
+            reading = read_motion(self.m.motion_encoder, self.m.text_encoder, content)
+            self.shared[key] = content if not reading.should_neutralize() else neutralize_features(
+                self.m.prior, content, self.m.text_encoder.encode([content_caption(reading.content)]), self.config, self.seed)
+        return self.shared[key]
+
+    def __call__(self, content, style, style_label, content_label):
+        from transfer.apply import apply_style_features, strength_settings
+
         model = self._model(style, style_label)
-        key = hashlib.sha1(content.numpy().tobytes()).hexdigest()
-        if key not in self.neutral:  # each content clip goes to six styles: neutralise it once
-            detected, source_style, _ = classify_caption(self.m.motion_encoder, self.m.text_encoder, content)
-            self.neutral[key] = content if source_style == "normal" else neutralize_features(
-                self.m.prior, content, self.m.text_encoder.encode([content_caption(detected)]), self.config, self.seed)
-        return apply_style_features(model, self.m.prior, self.neutral[key], self.config, self.config.transfer_step, self.seed)
+        config, step = self.config, self.config.transfer_step
+        if self.strength is not None:
+            step, scale = strength_settings(self.strength, self.config)
+            config = replace(config, style_scale=scale)
+        return apply_style_features(model, self.m.prior, self._neutral(content), config, step, self.seed)
 
 
-def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: int = 0, say=print,
-                  stgcn_weights: Path | None = None) -> tuple[dict, dict]:
-    """``({name: method}, {name: OnTheFly})`` for the requested method names (``stgcn_weights``: default the shipped ones)."""
+def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, stgcn_weights: Path | None = None,
+                  strengths: list[float] | None = None, iterations: int | None = None) -> tuple[dict, dict]:
+    """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
+    the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting)."""
     from transfer.dataset import MotionDataset
     from transfer.evaluation import identity_transfer
     from transfer.style import StyleConfig
@@ -108,7 +143,8 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
     if unknown:
         raise ValueError(f"evaluate: unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
     test = MotionDataset(data_dir, "test")
-    methods, learners = {}, {}
+    methods, learners, shared = {}, {}, {}
+    train = None
     for name in names:
         if name == "identity":
             methods[name] = identity_transfer
@@ -122,44 +158,101 @@ def build_methods(names: list[str], data_dir: Path, learn_seconds: float, seed: 
             from video2style.pipeline import load_models
 
             m = load_models()
-            config = replace(StyleConfig(), max_seconds=learn_seconds, seed=seed, **ABLATIONS[name])
-            learner = OnTheFly(m, MotionDataset(data_dir, "train"), config, seed, progress=lambda s, n=name: say(f"  {n}: {s}"))
-            learners[name] = learner
-            methods[name] = cleaned(learner, test.mean, test.std)
+            train = train or MotionDataset(data_dir, "train")
+            config = replace(StyleConfig(), seed=seed, **VARIANTS[name])
+            if iterations is not None:
+                config = replace(config, iterations=iterations)
+            for strength in strengths or [None]:
+                row = name if strength is None else f"{name} @{strength:g}"
+                learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: say(f"  {n}: {s}"),
+                                   strength=strength, shared=shared)
+                learners[row] = learner
+                methods[row] = cleaned(learner, test.mean, test.std)
     return methods, learners
 
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
-             learn_seconds: float | None = None, examples_pool: int | None = None, say=print,
-             stgcn_weights: Path | None = None) -> Iterator[str]:
-    """Run the protocol; writes ``out_dir/table.md`` and ``rows.json``; yields the report lines."""
+             examples_pool: int | None = None, say=print, stgcn_weights: Path | None = None,
+             split: str = "test", strengths: list[float] | None = None, iterations: int | None = None) -> Iterator[str]:
+    """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines."""
     from transfer.evaluation import format_table, run_protocol
+    from transfer.style import StyleConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():
         raise FileNotFoundError(f"{data_dir}: no dataset cache (build it with video2style dataset)")
+    if split not in ("test", "val"):
+        raise ValueError(f"evaluate: expected split 'test' or 'val', got {split!r}")
     names = list(methods or ["identity", "stgcn", "ours"])
-    learn_seconds = learn_seconds or (30.0 if quick else 60.0)
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
-    fns, learners = build_methods(names, data_dir, learn_seconds, seed, say, stgcn_weights)
-    rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool)
+    fns, learners = build_methods(names, data_dir, seed, say, stgcn_weights, strengths, iterations)
+    rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split)
     for row in rows:
         learner = learners.get(row["method"])
         if learner is not None and learner.learn_seconds:
             row["styles_learned"] = len(learner.learn_seconds)
             row["learn_seconds_mean"] = sum(learner.learn_seconds) / len(learner.learn_seconds)
+            row["iterations_min"] = min(learner.iterations)
+            row["strength"] = learner.strength
     table = format_table(rows)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    learned = [f"- {r['method']}: {r['styles_learned']} styles learned, {r['learn_seconds_mean']:.0f} s each "
-               "(included in s / transfer)" for r in rows if "styles_learned" in r]
-    header = (f"protocol: {'quick' if quick else 'full'}, seed {seed}, style examples from "
-              f"{examples_pool or 'all'} clip(s) per style, learning budget {learn_seconds:g} s per example; "
-              f"{time.time() - t0:.0f} s in all")
-    (out_dir / "table.md").write_text("\n".join([header, "", table, "", *learned]) + "\n")
-    (out_dir / "rows.json").write_text(json.dumps(rows, indent=1))
+    learned = [f"- {r['method']}: {r['styles_learned']} styles, {r['learn_seconds_mean']:.0f} s each to learn "
+               f"(at least {r['iterations_min']} iterations)" for r in rows if "styles_learned" in r]
+    header = (f"protocol: {'quick' if quick else 'full'} on the {split} split, seed {seed}, style examples from "
+              f"{examples_pool or 'all'} clip(s) per style, {iterations or StyleConfig.iterations} learning iterations "
+              f"per example; {time.time() - t0:.0f} s in all")
+    atomic_write_text(out_dir / "table.md", "\n".join([header, "", table, "", *learned]) + "\n")
+    atomic_write_text(out_dir / "rows.json", json.dumps(rows, indent=1))
+    plot = plot_tradeoff(rows, out_dir / "tradeoff.png", title=header.split(";")[0])
     yield header
     yield table
     yield from learned
-    yield f"wrote {out_dir / 'table.md'} and {out_dir / 'rows.json'}"
+    yield f"wrote {out_dir / 'table.md'}, {out_dir / 'rows.json'} and {plot}"
+
+
+def plot_tradeoff(rows: list[dict], path: Path, title: str = "") -> Path:
+    """CRA against SRA: one curve per variant of ours over its strengths, a point per other method and
+    Hu et al.'s published point. Written atomically as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curves: dict[str, list[tuple[float, float, float]]] = {}
+    points = []
+    for r in rows:
+        if r["method"].startswith("real"):
+            continue
+        base, _, s = r["method"].partition(" @")
+        if s:
+            curves.setdefault(base, []).append((float(s), 100 * r["sra"], 100 * r["cra"]))
+        else:
+            points.append((r["method"], 100 * r["sra"], 100 * r["cra"]))
+    fig, ax = plt.subplots(figsize=(7, 5.5), dpi=110)
+    for name, pts in curves.items():
+        pts.sort()
+        line, = ax.plot([p[1] for p in pts], [p[2] for p in pts], "o-", label=name)
+        for s, x, y in pts:
+            ax.annotate(f"{s:g}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, color=line.get_color())
+    for name, x, y in points:
+        ax.plot([x], [y], "s", label=name)
+    ax.plot([100 * HU_ET_AL["sra"]], [100 * HU_ET_AL["cra"]], "*", ms=14, color="k", label="Hu et al. (published)")
+    ax.axhline(93, color="grey", lw=0.6, ls="--")
+    ax.axvline(65, color="grey", lw=0.6, ls="--")
+    ax.set_xlabel("SRA: style recognition accuracy (%) →")
+    ax.set_ylabel("CRA: content recognition accuracy (%) →")
+    ax.set_title(title, fontsize=8)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp.png")
+    try:
+        fig.savefig(tmp)
+        tmp.replace(path)
+    finally:
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
+    return path

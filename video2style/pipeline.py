@@ -10,7 +10,7 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
-from motioncore.motion import Motion, resample
+from motioncore.motion import Motion, resample, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import (
     Rig,
@@ -81,19 +81,25 @@ class Clip:
     fps: float = CANONICAL.fps
 
 
-def read_clip(path: Path, joint_map: dict | None = None, progress=None) -> Clip:
-    """A BVH (any supported skeleton) or a video (via the lifting pipeline) -> :class:`Clip`."""
+def read_clip(path: Path, joint_map: dict | None = None, progress=None,
+              span: tuple[float | None, float | None] = (None, None)) -> Clip:
+    """A BVH (any supported skeleton) or a video (via the lifting pipeline) -> :class:`Clip`.
+
+    ``span = (start, end)`` in seconds (None: from the beginning / to the end) keeps only that part.
+    """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     if path.suffix.lower() in VIDEO_SUFFIXES:
         from lifting.pipeline import video_to_motion
 
-        canon = video_to_motion(path, progress=progress)
+        canon = video_to_motion(path, progress=progress, span=span)
         return Clip(path, resample(canon, CANONICAL.fps), fps=canon.fps)
     motion, layout = read_bvh(path)
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     canon = place_on_floor(to_canonical(resample(motion, CANONICAL.fps), rig))
+    if span != (None, None):
+        canon = place_on_floor(trim(canon, span, str(path)))
     if canon.num_frames < 10:
         raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
     return Clip(path, canon, rig, layout, motion.fps)
@@ -132,64 +138,152 @@ def content_source(progress=print):
     return ContentBank(weights_path("content_bank.safetensors"))
 
 
+class PartialStyleError(ValueError):
+    """Learning ended before the style was complete (time cap, or too few iterations); nothing was written."""
+
+
 def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
-               config=None, joint_map: dict | None = None, progress=print) -> dict:
-    """Learn a style from a video or BVH and save it to ``out_path``; returns a summary."""
-    from transfer.apply import classify_caption
-    from transfer.style import StyleConfig, learn_style
+               config=None, joint_map: dict | None = None, progress=print, *, allow_partial: bool = False,
+               span: tuple[float | None, float | None] = (None, None), show_bar: bool = False) -> dict:
+    """Learn a style from a video or BVH and save it to ``out_path``; returns a summary.
+
+    If learning is cut short by ``config.max_seconds`` or runs fewer than
+    :data:`transfer.style.MIN_ITERATIONS` iterations, raises :class:`PartialStyleError` and writes
+    nothing, unless ``allow_partial`` (then the summary's ``partial`` holds the reason).
+    ``span``: ``(start, end)`` seconds of the input to learn from.
+    """
+    from transfer.apply import read_motion
+    from transfer.style import StyleConfig, learn_style, partial_reason
 
     t0 = time.time()
     config = config or StyleConfig()
     style_words = style_words or Path(path).stem.replace("_", " ").replace("-", " ")
     progress(f"[1/4] reading {path}")
-    clip = read_clip(path, joint_map, progress=progress)
+    clip = read_clip(path, joint_map, progress=progress, span=span)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models()
     example = (encode(clip.canonical) - m.mean) / m.std
     if text is None:
-        content, _, top = classify_caption(m.motion_encoder, m.text_encoder, example)
-        text = content
-        progress(f"[2/4] content by retrieval: {content!r} (nearest captions {top[0][0]!r}, {top[1][0]!r})")
+        reading = read_motion(m.motion_encoder, m.text_encoder, example)
+        text = reading.content
+        progress(f"[2/4] content by retrieval: {reading.content!r} (nearest captions {reading.top[0][0]!r}, "
+                 f"{reading.top[1][0]!r}; {'confident' if reading.confident else 'not confident: give --text'})")
     else:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
     progress("[3/4] learning")
     style, _ = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
-                              m.prior_path, progress=lambda s: progress(f"      {s}"))
+                           m.prior_path, progress=lambda s: progress(f"      {s}"), show_bar=show_bar)
+    tempo = style_tempo(clip.canonical, text, dataset, m.mean, m.std)
+    if tempo is not None:
+        progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
+    partial = partial_reason(style.meta)
+    if partial and not allow_partial:
+        raise PartialStyleError(f"{path}: {partial}; nothing written (give more time or iterations, "
+                                "or --allow-partial to keep it)")
     style.example = encode(clip.canonical)
-    style.meta.update({"source": Path(path).name, "example_seconds": round(clip.canonical.duration, 2)})
+    style.meta.update({"source": Path(path).name, "example_seconds": round(clip.canonical.duration, 2),
+                       "span": list(span), "partial": partial, "tempo": tempo})
     progress(f"[4/4] writing {out_path}")
     style.save(out_path)
     return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
-            "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size}
+            "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size, "partial": partial}
 
 
-def apply_file(style, model, path: Path, out_dir: Path, step: int, seed: int = 0, neutralize: str = "auto",
-               joint_map: dict | None = None, preview: bool = True) -> dict:
-    """Apply a loaded style (``model`` = prior + adapters) to one BVH; writes ``out_dir/<name>.bvh`` (+ preview)."""
-    from transfer.apply import apply_style_motion, classify_caption
+LOCOMOTION = ("walk", "walk-turn-left", "walk-turn-right", "run")  # contents whose speed a style may change
+TEMPO_RANGE = (0.5, 1.5)
+
+
+def style_tempo(example: Motion, content: str, data, mean: torch.Tensor, std: torch.Tensor) -> float | None:
+    """How fast the style example moves next to neutral clips of its content (median root speed of the
+    content's "normal" clips in ``data``), clipped to :data:`TEMPO_RANGE`; None when the content is not
+    locomotion or there are no such clips."""
+    from motioncore.motion import root_speed
+    from motioncore.representation import decode
+
+    if content not in LOCOMOTION:
+        return None
+    idx = [i for i, r in enumerate(data.records) if r.style == "normal" and r.content == content][:50]
+    speeds = sorted(root_speed(decode(data.clip(i) * std + mean)) for i in idx)
+    if not speeds or speeds[len(speeds) // 2] <= 0.05:
+        return None
+    ratio = root_speed(example) / speeds[len(speeds) // 2]
+    return float(min(max(ratio, TEMPO_RANGE[0]), TEMPO_RANGE[1]))
+
+
+def resolve_tempo(style, tempo: str | float) -> float:
+    """``--tempo``: "off" -> 1, "auto" -> the style's measured tempo (1 when it has none), or a number."""
+    if tempo == "off":
+        return 1.0
+    if tempo == "auto":
+        value = style.meta.get("tempo")
+        return float(value) if isinstance(value, (int, float)) and TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1] else 1.0
+    value = float(tempo)
+    if not TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1]:
+        raise ValueError(f"--tempo: expected off, auto or a number from {TEMPO_RANGE[0]} to {TEMPO_RANGE[1]}, got {tempo}")
+    return value
+
+
+def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: int = 0,
+                   neutralize: str = "auto", tempo: float = 1.0) -> tuple[Motion, dict]:
+    """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; feet cleaned against the content.
+
+    ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
+    (only when the motion encoder reads a styled clip confidently), always or never. ``tempo``: the content is
+    first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same).
+    Returns the result and what was decided (``detected``, ``neutralized``, ``tempo``) with the foot-skating
+    ratios before and after cleanup.
+    """
+    from motioncore.motion import time_warp
+
+    if tempo != 1.0:
+        content = time_warp(content, tempo)
+    from dataclasses import replace
+
+    from transfer.apply import apply_style_motion, read_motion, strength_settings
     from transfer.captions import content_caption
-    from transfer.style import StyleConfig
 
-    t0 = time.time()
     m = load_models()
-    clip = read_clip(path, joint_map)
-    config = StyleConfig(**style.meta.get("config", {}))
+    config = style_config(style)
+    step, scale = strength_settings(strength, config)
+    config = replace(config, style_scale=scale)
     neutral_text, detected = None, None
     if neutralize != "never":
-        content, style_label, _ = classify_caption(m.motion_encoder, m.text_encoder, (encode(clip.canonical) - m.mean) / m.std)
-        detected = f"{content}/{style_label}"
-        if neutralize == "always" or style_label != "normal":
-            neutral_text = m.text_encoder.encode([content_caption(content)])
-    raw = apply_style_motion(model, m.prior, clip.canonical, m.mean, m.std, config, step, seed, neutral_text, clean=False)
-    result, skating = clean_feet(raw, clip.canonical)
+        reading = read_motion(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std)
+        detected = reading.describe()
+        if reading.should_neutralize(neutralize):
+            neutral_text = m.text_encoder.encode([content_caption(reading.content)])
+    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
+    result, skating = clean_feet(raw, content)
+    return result, {"detected": detected, "neutralized": neutral_text is not None, "tempo": tempo, **skating}
+
+
+def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
+               joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
+    """:func:`stylize_motion` on one BVH; writes ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview).
+    ``tempo``: see :func:`resolve_tempo`."""
+    t0 = time.time()
+    clip = read_clip(path, joint_map)
+    result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize, resolve_tempo(style, tempo))
     ex = example_motion(style)
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
-    info = {"input": str(path), "frames": clip.canonical.num_frames, "detected": detected,
-            "neutralized": neutral_text is not None, "seconds_transfer": time.time() - t0, **skating}
+    info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0}
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
+
+
+def style_config(style):
+    """The :class:`transfer.style.StyleConfig` a style file was learned with (fields it lacks: today's defaults)."""
+    from dataclasses import fields
+
+    from transfer.style import StyleConfig
+
+    saved = style.meta.get("config", {})
+    if not isinstance(saved, dict):
+        raise ValueError(f"style file: expected a config object, got {type(saved).__name__}")  # noqa: TRY004 - one-line CLI error
+    known = {f.name for f in fields(StyleConfig)}
+    return StyleConfig(**{k: v for k, v in saved.items() if k in known})
 
 
 def clean_feet(motion: Motion, content: Motion) -> tuple[Motion, dict]:

@@ -49,17 +49,19 @@ def pose_file(
     fov_deg: float = DEFAULT_FOV_DEG,
     trajectory: str = "auto",
     tracker: PoseTracker | None = None,
+    span: tuple[float | None, float | None] = (None, None),
 ) -> dict:
     """Lift ``video`` to ``out_bvh`` (canonical skeleton, centimetres, the video's fps) and, if
     ``preview`` is given, write an mp4 of landmarks beside the fitted skeleton.
 
+    ``span``: ``(start, end)`` seconds of the video to lift (None: open end).
     ``progress``: True for bars in frames, a callable taking a line, or None/False. Returns a
     summary dict (frames, tracked span, timings, frames per second, paths). Raises ValueError
     with a one-line message naming the file for unusable videos; nothing is written then.
     """
     video, out_bvh = Path(video), Path(out_bvh)
     t0 = time.perf_counter()
-    lifted = lift_video(video, progress, cutoff_hz, tracker=tracker, fov_deg=fov_deg, trajectory=trajectory)
+    lifted = lift_video(video, progress, cutoff_hz, tracker=tracker, span=span, fov_deg=fov_deg, trajectory=trajectory)
     t1 = time.perf_counter()
     tmp_preview = None
     try:
@@ -117,9 +119,9 @@ def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool)
         cv2.circle(img, tuple(map(int, p[k])), int((thick + 1) * 16), (255, 255, 255), -1, cv2.LINE_AA, 4)
 
 
-def _prefetch(video: Path, n: int, depth: int = 4):
-    """``(index, frame)`` of the first ``n`` frames, decoded one at a time by a helper thread
-    (OpenCV releases the GIL while decoding, so decoding overlaps the drawing); at most
+def _prefetch(video: Path, n: int, depth: int = 4, first: int = 0):
+    """``(index - first, frame)`` of ``n`` frames from frame ``first`` on, decoded one at a time by a helper
+    thread (OpenCV releases the GIL while decoding, so decoding overlaps the drawing); at most
     ``depth`` frames wait in memory."""
     frames: queue.Queue = queue.Queue(maxsize=depth)
     stop = threading.Event()
@@ -128,9 +130,11 @@ def _prefetch(video: Path, n: int, depth: int = 4):
     def reader() -> None:
         try:
             for i, _, frame in iter_frames(video):
-                if i >= n or stop.is_set():
+                if i < first:
+                    continue
+                if i - first >= n or stop.is_set():
                     break
-                frames.put((i, frame))
+                frames.put((i - first, frame))
         except Exception as exc:  # noqa: BLE001 - re-raised in the consumer
             frames.put(exc)
             return
@@ -208,7 +212,8 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     bar = _Reporter(progress, n, f"{out.name}: preview")
     try:
         writer = _Writer(tmp, float(tr.fps), size)
-        for i, frame in _prefetch(video, n):
+        first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)
+        for i, frame in _prefetch(video, n, first=first):
             left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
             inside = lifted.start <= i < lifted.stop
             if np.isfinite(tr.image[i]).all():

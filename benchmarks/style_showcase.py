@@ -1,0 +1,156 @@
+"""Does a learned style show, and does the content survive? Measured on clips the settings were not chosen on.
+
+    python benchmarks/style_showcase.py [--shared ../shared/data] [--out runs/showcase] [--strength 0.5]
+
+1. SCUBA diver (``treadmill_32_SCUBA_Diver.mp4`` from 0.25 s: the clip opens with another walk) applied to the
+   neutral Bandai-2 test walks: foot lift (highest ankle above its lowest, mean of both feet) of example,
+   contents and results, and what the content classifier reads in the results.
+2. Xia clips (styles the prior never saw) learned one by one and applied to neutral Bandai-2 test walks and
+   runs: a style similarity that does not use our style classifier. Gram matrices of the standardised
+   motion features (root path channels left out) over time; ``gram ratio`` = ||G(result) - G(example)|| /
+   ||G(content) - G(example)||, below 1 when the result moved towards the example.
+3. Content safety: on the Bandai-2 test waves (normal style) the peak hand height of content and result;
+   on the fair1 and Xia clips (the prior never saw them) the mean joint displacement from the content,
+   next to the same number for the Bandai walks.
+Previews of some results go to ``--out`` to be looked at. Needs ../shared/data and the dataset cache.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+
+HANDS = ("Hand_L", "Hand_R")
+
+
+def foot_lift(motion) -> float:
+    from motioncore.skeleton import CANONICAL
+
+    p = motion.global_positions()
+    lifts = [float(p[:, leg[2], 1].max() - p[:, leg[2], 1].min()) for leg in CANONICAL.legs]
+    return sum(lifts) / len(lifts)
+
+
+def hand_peak(motion) -> float:
+    from motioncore.skeleton import CANONICAL
+
+    p = motion.global_positions()
+    return float(max(p[:, CANONICAL.skeleton.index(n), 1].max() for n in HANDS))
+
+
+def displacement(a, b) -> float:
+    """Mean joint position difference (m) between two motions of the same length."""
+    return float((a.global_positions() - b.global_positions()).norm(dim=-1).mean())
+
+
+def gram(x: torch.Tensor) -> torch.Tensor:
+    from motioncore.representation import FEATURES
+
+    keep = torch.ones(x.shape[1], dtype=torch.bool)
+    for s in (FEATURES.root_rvel, FEATURES.root_lvel):
+        keep[s] = False
+    f = x[:, keep]
+    return f.T @ f / f.shape[0]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--shared", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared" / "data")
+    ap.add_argument("--out", type=Path, default=Path("runs/showcase"))
+    ap.add_argument("--strength", type=float, default=0.5)
+    ap.add_argument("--clips", type=int, default=4, help="Bandai test clips per content (default: %(default)s)")
+    args = ap.parse_args()
+
+    from motioncore.representation import decode, encode
+    from transfer.classifiers import default_weights, load_classifier, run_batched
+    from transfer.dataset import MotionDataset
+    from transfer.style import Style, style_model
+    from video2style.paths import default_dataset_dir
+    from video2style.pipeline import learn_file, load_models, read_clip, stylize_motion
+
+    m = load_models()
+    test = MotionDataset(default_dataset_dir(), "test")
+    clf = load_classifier(default_weights("content"))
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+
+    def bandai(content: str, style: str = "normal"):
+        idx = [i for i, r in enumerate(test.records)
+               if r.dataset == "bandai2" and not r.mirrored and r.content == content and r.style == style]
+        return [(test.records[i].name, decode(test.clip(i, normalized=False))) for i in idx[: args.clips]]
+
+    def learn(path: Path, name: str, span=(None, None)):
+        style_path = out / f"{name}.v2s"
+        if not style_path.is_file():
+            learn_file(path, style_path, name.replace("_", " "), progress=lambda s: None, span=span)
+        style = Style.load(style_path)
+        return style, style_model(m.prior, style)
+
+    def reads(motions) -> list[str]:
+        feats = [clf.normalize(encode(x)) for x in motions]
+        return [clf.config.classes[i] for i in run_batched(clf, feats, "logits").argmax(-1).tolist()]
+
+    report: dict = {}
+    walks, runs, waves = bandai("walk"), bandai("run"), bandai("wave-both-hands") + bandai("wave-left-hand") + bandai("wave-right-hand")
+    # 1. SCUBA diver
+    style, model = learn(args.shared / "videos" / "treadmill_32_SCUBA_Diver.mp4", "scuba_diver", (0.25, None))
+    example = decode(style.example)
+    results = [stylize_motion(style, model, x, args.strength)[0] for _, x in walks]
+    report["scuba"] = {"example_foot_lift": foot_lift(example),
+                       "content_foot_lift": [foot_lift(x) for _, x in walks],
+                       "result_foot_lift": [foot_lift(r) for r in results],
+                       "result_read_as": reads(results)}
+    print(json.dumps(report["scuba"], indent=1))
+    _preview([walks[0][1], example, results[0]], ["content", "SCUBA example", "result"], out / "scuba_walk.mp4")
+
+    # 2. Xia styles (and 3. wave peaks and displacement with each)
+    report["xia"], report["waves"], report["foreign"] = {}, [], []
+    foreign = sorted((args.shared / "bvh_misc").glob("fair1_*.bvh")) + sorted((args.shared / "xia_test").glob("*.bvh"))
+    foreign_clips = [(p.name, read_clip(p).canonical) for p in foreign]
+    for path in sorted((args.shared / "xia_test").glob("*.bvh")):
+        if path.stem.startswith("neutral"):
+            continue
+        style, model = learn(path, f"xia_{path.stem}")
+        ex = encode(decode(style.example))
+        g_ex = gram((ex - m.mean) / m.std)
+        rows = []
+        for name, x in walks + runs:
+            r = stylize_motion(style, model, x, args.strength)[0]
+            g_c, g_r = gram((encode(x) - m.mean) / m.std), gram((encode(r) - m.mean) / m.std)
+            rows.append({"clip": name, "gram_ratio": float((g_r - g_ex).norm() / (g_c - g_ex).norm()),
+                         "displacement": displacement(r, x)})
+        report["xia"][path.stem] = rows
+        ratio = sum(r["gram_ratio"] for r in rows) / len(rows)
+        disp = sum(r["displacement"] for r in rows) / len(rows)
+        print(f"xia {path.stem}: gram ratio {ratio:.3f} (walks+runs), displacement on Bandai {disp:.3f} m")
+        for name, x in waves:
+            r = stylize_motion(style, model, x, args.strength)[0]
+            report["waves"].append({"style": path.stem, "clip": name, "content_peak": hand_peak(x), "result_peak": hand_peak(r)})
+        for name, x in foreign_clips:
+            r = stylize_motion(style, model, x, args.strength)[0]
+            report["foreign"].append({"style": path.stem, "clip": name, "displacement": displacement(r, x)})
+        if path.stem == "old_13_000":
+            _preview([walks[0][1], decode(style.example), stylize_motion(style, model, walks[0][1], args.strength)[0]],
+                     ["content", "Xia old", "result"], out / "xia_old_walk.mp4")
+    drops = [w["content_peak"] - w["result_peak"] for w in report["waves"]]
+    print(f"waves: hand peak change, content - result: max {max(drops):.3f} m, mean {sum(drops) / len(drops):.3f} m "
+          f"over {len(drops)} (style, clip) pairs")
+    fd = [f["displacement"] for f in report["foreign"]]
+    print(f"foreign clips (fair1, Xia): mean joint displacement {sum(fd) / len(fd):.3f} m, max {max(fd):.3f} m")
+    (out / "report.json").write_text(json.dumps(report, indent=1))
+    print(f"wrote {out / 'report.json'}")
+
+
+def _preview(motions, labels, path: Path) -> None:
+    from motioncore.render import Panel, render_video
+    from motioncore.skeleton import CANONICAL
+
+    sk = CANONICAL.skeleton
+    panels = [Panel(x.global_positions(), sk.parents, label, names=sk.names) for x, label in zip(motions, labels)]
+    render_video(panels, path, CANONICAL.fps, size=(320, 320), progress=False)
+
+
+if __name__ == "__main__":
+    main()
