@@ -7,7 +7,7 @@
    contents and results, and what the content classifier reads in the results.
 2. Xia clips (styles the prior never saw) learned one by one and applied to neutral Bandai-2 test walks and
    runs: a style similarity that does not use our style classifier. Gram matrices of the standardised
-   motion features (root path channels left out) over time; ``gram ratio`` = ||G(result) - G(example)|| /
+   raw joint rotation and position features, centred over time; ``gram ratio`` = ||G(result) - G(example)|| /
    ||G(content) - G(example)||, below 1 when the result moved towards the example.
 3. Content safety: on the Bandai-2 test waves (normal style) the peak hand height of content and result;
    on the fair1 and Xia clips (the prior never saw them) the mean joint displacement from the content,
@@ -46,12 +46,14 @@ def displacement(a, b) -> float:
 
 
 def gram(x: torch.Tensor) -> torch.Tensor:
+    """Style descriptor of raw features ``(T, D)`` (metres, 6D rotations; not standardised with the Bandai
+    statistics, which blow up channels that barely move in Bandai data): the covariance over time of the joint
+    rotation and position channels (root path and contact flags left out; centred, so constant offsets from a
+    skeleton's rest pose do not count, only how the body moves)."""
     from motioncore.representation import FEATURES
 
-    keep = torch.ones(x.shape[1], dtype=torch.bool)
-    for s in (FEATURES.root_rvel, FEATURES.root_lvel):
-        keep[s] = False
-    f = x[:, keep]
+    f = torch.cat([x[:, FEATURES.positions], x[:, FEATURES.rotations]], -1)
+    f = f - f.mean(0, keepdim=True)
     return f.T @ f / f.shape[0]
 
 
@@ -97,11 +99,12 @@ def main() -> None:
     # 1. SCUBA diver
     style, model = learn(args.shared / "videos" / "treadmill_32_SCUBA_Diver.mp4", "scuba_diver", (0.25, None))
     example = decode(style.example)
+    report["scuba"] = {"example_foot_lift": foot_lift(example), "content_foot_lift": [foot_lift(x) for _, x in walks]}
+    for strength in sorted({args.strength, 1.0}):
+        results = [stylize_motion(style, model, x, strength)[0] for _, x in walks]
+        report["scuba"][f"strength {strength:g}"] = {"result_foot_lift": [foot_lift(r) for r in results],
+                                                     "result_read_as": reads(results)}
     results = [stylize_motion(style, model, x, args.strength)[0] for _, x in walks]
-    report["scuba"] = {"example_foot_lift": foot_lift(example),
-                       "content_foot_lift": [foot_lift(x) for _, x in walks],
-                       "result_foot_lift": [foot_lift(r) for r in results],
-                       "result_read_as": reads(results)}
     print(json.dumps(report["scuba"], indent=1))
     _preview([walks[0][1], example, results[0]], ["content", "SCUBA example", "result"], out / "scuba_walk.mp4")
 
@@ -114,11 +117,11 @@ def main() -> None:
             continue
         style, model = learn(path, f"xia_{path.stem}")
         ex = encode(decode(style.example))
-        g_ex = gram((ex - m.mean) / m.std)
+        g_ex = gram(ex)
         rows = []
         for name, x in walks + runs:
             r = stylize_motion(style, model, x, args.strength)[0]
-            g_c, g_r = gram((encode(x) - m.mean) / m.std), gram((encode(r) - m.mean) / m.std)
+            g_c, g_r = gram(encode(x)), gram(encode(r))
             rows.append({"clip": name, "gram_ratio": float((g_r - g_ex).norm() / (g_c - g_ex).norm()),
                          "displacement": displacement(r, x)})
         report["xia"][path.stem] = rows

@@ -175,3 +175,18 @@ def test_reading_neutralises_only_confident_styled_clips():
     assert not reading(0.88, 0.2, 0.99).should_neutralize()  # content unclear
     assert reading(0.70, 0.2, 0.1).should_neutralize("always") and not reading(0.88, 0.7, 0.95).should_neutralize("never")
     assert "not confident" in reading(0.70, 0.7, 0.99).describe()
+
+
+def test_smooth_time_keeps_constants_and_damps_fast_oscillation():
+    import math
+
+    from transfer.style import smooth_time
+
+    c = torch.full((1, 40, 3), 2.5)
+    assert torch.allclose(smooth_time(c, 3.0), c) and torch.equal(smooth_time(c, 0.0), c)
+    t = torch.arange(80.0)
+    slow, fast = torch.sin(2 * math.pi * t / 80), torch.sin(2 * math.pi * t / 8)  # 0.25 Hz and 2.5 Hz at 20 fps
+    x = torch.stack([slow, fast], -1)[None]
+    y = smooth_time(x, 3.0)[0, 10:-10]
+    assert (y[:, 0] - slow[10:-10]).abs().max() < 0.05  # posture-like change kept
+    assert y[:, 1].abs().max() < 0.1 * fast.abs().max()  # wave-like oscillation removed

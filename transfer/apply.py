@@ -131,7 +131,7 @@ def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, conf
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
-    parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen)
+    parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen, config.neutralize_step)
     return crossfade(list(parts), starts, x.shape[0])
 
 
@@ -139,7 +139,7 @@ def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, conf
 def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, step: int, seed: int = 0,
                          neutral_text: torch.Tensor | None = None, window: int = 80, overlap: int = 20) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)``; ``neutral_text (1, E)`` first neutralises a styled clip."""
-    if neutral_text is not None:
+    if neutral_text is not None and config.neutralize_step > 0:
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)

@@ -236,7 +236,7 @@ def cmd_evaluate(args) -> None:
 
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
                          examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights, split=args.split,
-                         strengths=args.strengths, iterations=args.iterations):
+                         strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache):
         print(line)
 
 
@@ -436,6 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--iterations", type=_positive_int, help="learning iterations per style example (default: learn's)")
     ev.add_argument("--strengths", type=float, nargs="+", help="run each variant of ours at these --strength values "
                     "(one row each; tradeoff.png draws the curves)")
+    ev.add_argument("--style-cache", type=Path, help="keep learned styles in this folder and reuse them in later runs")
     ev.add_argument("--split", choices=["test", "val"], default="test",
                     help="clips to evaluate on: val to choose settings, test to report (default: %(default)s)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")

@@ -47,9 +47,19 @@ VARIANTS = {
     "ours-diff-no-pp": {"apply_mode": "difference", "lambda_p": 0.0},
     "ours-diff-no-pp-k600": {"apply_mode": "difference", "lambda_p": 0.0, "transfer_step": 600, "transfer_steps": 12},
     "ours-guided": {"apply_mode": "regenerate", "style_scale": 2.0},
+    "ours-diff-n600": {"apply_mode": "difference", "neutralize_step": 600},
+    "ours-diff-n0": {"apply_mode": "difference", "neutralize_step": 0},
+    "ours-diffg": {"apply_mode": "difference", "guided_difference": True},
+    "ours-diffg-n600": {"apply_mode": "difference", "guided_difference": True, "neutralize_step": 600},
+    "ours-diff-pp01": {"apply_mode": "difference", "lambda_p": 0.1},
+    "ours-diff-pp005": {"apply_mode": "difference", "lambda_p": 0.05},
+    "ours-diff-ls05": {"apply_mode": "difference", "lambda_s": 0.5},
+    "ours-diff-ls1": {"apply_mode": "difference", "lambda_s": 1.0},
+    "ours-diff-s3": {"apply_mode": "difference", "delta_smoothing": 3.0},
+    "ours-diff-s6": {"apply_mode": "difference", "delta_smoothing": 6.0},
 }
 METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
-APPLY_FIELDS = ("apply_mode", "style_scale")  # StyleConfig fields that do not change what is learned
+APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing")  # not used in learning
 HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
@@ -80,8 +90,9 @@ class OnTheFly:
     """
 
     def __init__(self, models, content_data, config, seed: int = 0, progress=None, strength: float | None = None,
-                 shared: dict | None = None):
+                 shared: dict | None = None, store: Path | None = None):
         self.m, self.data, self.config, self.seed, self.strength = models, content_data, config, seed, strength
+        self.store = store  # a folder keeping learned styles between runs (keyed by example and learning config)
         self.shared = shared if shared is not None else {}
         self.learn_seconds: list[float] = []
         self.iterations: list[int] = []
@@ -89,15 +100,21 @@ class OnTheFly:
 
     def _model(self, style: torch.Tensor, style_label: str):
         from transfer.apply import read_motion
-        from transfer.style import learn_style, style_model
+        from transfer.style import Style, learn_style, style_model
 
-        learn_config = {k: v for k, v in asdict(self.config).items() if k not in APPLY_FIELDS}
+        learn_config = {k: v for k, v in asdict(self.config).items() if k not in APPLY_FIELDS + ("max_seconds",)}
         key = "style" + _key(style, style_label, learn_config)
+        stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
+        if key not in self.shared and stored is not None and stored.is_file():
+            learned = Style.load(stored)
+            self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"])
         if key not in self.shared:
             t0 = time.time()
             content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
             learned, _ = learn_style(self.m.prior, self.m.motion_encoder, self.m.text_encoder, self.data, style,
                                      style_label, content, self.config)
+            if stored is not None:
+                learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
             self.say(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
@@ -112,11 +129,12 @@ class OnTheFly:
         from transfer.apply import neutralize_features, read_motion
         from transfer.captions import content_caption
 
-        pair_config = {k: getattr(self.config, k) for k in ("pair_step", "pair_steps", "guidance")}
+        pair_config = {k: getattr(self.config, k) for k in ("neutralize_step", "pair_step", "pair_steps", "guidance")}
         key = "neutral" + _key(content, pair_config, self.seed)
         if key not in self.shared:  # each content clip goes to six styles: neutralise it once
             reading = read_motion(self.m.motion_encoder, self.m.text_encoder, content)
-            self.shared[key] = content if not reading.should_neutralize() else neutralize_features(
+            skip = not reading.should_neutralize() or self.config.neutralize_step == 0
+            self.shared[key] = content if skip else neutralize_features(
                 self.m.prior, content, self.m.text_encoder.encode([content_caption(reading.content)]), self.config, self.seed)
         return self.shared[key]
 
@@ -132,7 +150,8 @@ class OnTheFly:
 
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, stgcn_weights: Path | None = None,
-                  strengths: list[float] | None = None, iterations: int | None = None) -> tuple[dict, dict]:
+                  strengths: list[float] | None = None, iterations: int | None = None,
+                  style_cache: Path | None = None) -> tuple[dict, dict]:
     """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
     the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting)."""
     from transfer.dataset import MotionDataset
@@ -165,7 +184,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, st
             for strength in strengths or [None]:
                 row = name if strength is None else f"{name} @{strength:g}"
                 learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: say(f"  {n}: {s}"),
-                                   strength=strength, shared=shared)
+                                   strength=strength, shared=shared, store=style_cache)
                 learners[row] = learner
                 methods[row] = cleaned(learner, test.mean, test.std)
     return methods, learners
@@ -173,7 +192,8 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, st
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
              examples_pool: int | None = None, say=print, stgcn_weights: Path | None = None,
-             split: str = "test", strengths: list[float] | None = None, iterations: int | None = None) -> Iterator[str]:
+             split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
+             style_cache: Path | None = None) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines."""
     from transfer.evaluation import format_table, run_protocol
     from transfer.style import StyleConfig
@@ -186,7 +206,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
-    fns, learners = build_methods(names, data_dir, seed, say, stgcn_weights, strengths, iterations)
+    fns, learners = build_methods(names, data_dir, seed, say, stgcn_weights, strengths, iterations, style_cache)
     rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split)
     for row in rows:
         learner = learners.get(row["method"])
