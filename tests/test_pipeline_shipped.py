@@ -66,3 +66,12 @@ def test_learn_command_refuses_a_partial_style_in_one_line(tmp_path, monkeypatch
     assert "cut short by the time cap" in capsys.readouterr().err and Style.load(out).meta["stopped_by"] == "time"
     assert main(["learn", str(SAMPLES / "walk_prior.bvh"), "-o", str(out), "--start", "3", "--end", "1"]) == 1
     assert "must be after --start" in capsys.readouterr().err
+
+
+def test_a_style_from_another_prior_is_warned_about(tmp_path):
+    from video2style.pipeline import base_model_warning
+
+    style = Style({}, {"base_model_sha256": "0" * 64})
+    assert "learned on another prior" in base_model_warning(style, Path("x.v2s"))
+    style.meta["base_model_sha256"] = None
+    assert base_model_warning(style, Path("x.v2s")) is None

@@ -51,10 +51,15 @@ def lora_state(model: nn.Module) -> dict[str, torch.Tensor]:
 
 
 def load_lora_state(model: nn.Module, tensors: dict[str, torch.Tensor]) -> None:
-    own = {k for k in model.state_dict() if k.endswith(("lora_a", "lora_b"))}
+    """Load adapter tensors; ValueError (one line) when their names or shapes do not fit the model."""
+    state = model.state_dict()
+    own = {k for k in state if k.endswith(("lora_a", "lora_b"))}
     if set(tensors) != own:
         missing, extra = sorted(own - set(tensors)), sorted(set(tensors) - own)
         raise ValueError(f"adapter tensors do not fit the model: missing {missing[:3]}, unexpected {extra[:3]}")
+    for k in sorted(own):
+        if tensors[k].shape != state[k].shape:
+            raise ValueError(f"adapter tensor {k}: expected shape {tuple(state[k].shape)}, got {tuple(tensors[k].shape)}")
     model.load_state_dict(tensors, strict=False)
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -82,15 +83,32 @@ class Style:
 
     @staticmethod
     def load(path: Path) -> Style:
+        """Read and validate a style file (:mod:`transfer.style_schema`): it is untrusted input."""
+        from transfer.style_schema import (
+            MAX_METADATA,
+            MAX_TENSOR_VALUES,
+            validate_style,
+        )
+
         path = Path(path)
         try:
             with safe_open(str(path), framework="pt") as f:
-                meta = json.loads((f.metadata() or {})["video2style"])
+                raw = (f.metadata() or {}).get("video2style")
+                sizes = [math.prod(f.get_slice(k).get_shape()) for k in f.keys()]  # noqa: SIM118 - not a dict
+            if raw is None or len(raw) > MAX_METADATA:
+                raise ValueError("no video2style metadata" if raw is None else "metadata too large")
+            if sum(sizes) > MAX_TENSOR_VALUES:
+                raise ValueError(f"tensors too large ({sum(sizes)} values)")
+            meta = json.loads(raw)
             tensors = load_file(str(path))
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such style file") from None
-        except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage
-            raise ValueError(f"{path}: not a video2style style file ({e})") from None
+        except (Exception, RecursionError) as e:  # noqa: BLE001 - safetensors raises its own errors on garbage
+            raise ValueError(f"{path}: not a video2style style file ({str(e)[:200]})") from None
+        try:
+            validate_style(meta, tensors)
+        except ValueError as e:
+            raise ValueError(f"{path}: invalid style file: {e}") from None
         example = tensors.pop("example", None)
         return Style({k: v.float() for k, v in tensors.items()}, meta, example)
 

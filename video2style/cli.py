@@ -147,7 +147,12 @@ def cmd_apply(args) -> None:
 
 def _diffusion_runner(args, joint_map):
     from transfer.style import Style, style_model
-    from video2style.pipeline import apply_file, load_models, resolve_tempo
+    from video2style.pipeline import (
+        apply_file,
+        base_model_warning,
+        load_models,
+        resolve_tempo,
+    )
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
         raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method stgcn --domain D)")
@@ -157,6 +162,9 @@ def _diffusion_runner(args, joint_map):
     _check_strength(args.strength)
     style = Style.load(args.style)
     model = style_model(load_models().prior, style)
+    warning = base_model_warning(style, args.style)
+    if warning:
+        print(warning, file=sys.stderr)
     files = _bvh_inputs(args.inputs)
     if args.tempo not in ("off", "auto"):
         resolve_tempo(style, args.tempo)  # a bad number: one line before any work

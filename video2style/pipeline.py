@@ -273,6 +273,25 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     return info
 
 
+@lru_cache(maxsize=4)
+def _sha256(path: Path) -> str:
+    from transfer.style import file_sha256
+
+    return file_sha256(path)
+
+
+def base_model_warning(style, source: Path) -> str | None:
+    """A one-line warning when ``style`` was learned on another prior than the installed one, else None."""
+    learned_on = style.meta.get("base_model_sha256")
+    if learned_on is None:
+        return None
+    installed = _sha256(load_models().prior_path)
+    if learned_on == installed:
+        return None
+    return (f"warning: {source}: learned on another prior (sha256 {learned_on[:12]}…, installed "
+            f"{installed[:12]}…); results may differ from where it was made")
+
+
 def style_config(style):
     """The :class:`transfer.style.StyleConfig` a style file was learned with (fields it lacks: today's defaults)."""
     from dataclasses import fields

@@ -1,0 +1,110 @@
+"""Validation of a style file's contents: everything in a ``.v2s`` is untrusted input.
+
+:func:`validate_style` checks the metadata (types, ranges, sizes) and the tensors (names,
+dtypes, finiteness, shapes against the rank, the example's size) and raises ``ValueError`` with
+one line naming the field. Limits are bounds on what a file may make the program do, not on what
+``learn`` writes (it stays well inside them).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+
+import torch
+
+from motioncore.representation import FEATURES
+
+MAX_TEXT = 500  # characters in a string field
+MAX_METADATA = 1 << 20  # characters of JSON metadata
+MAX_TENSOR_VALUES = 20_000_000  # all tensors together (a learned style holds about 0.3 M)
+MAX_RANK = 64
+MAX_EXAMPLE_FRAMES = 20 * 60 * 10  # ten minutes at the canonical 20 fps
+ADAPTER_DTYPES = (torch.float16, torch.float32, torch.bfloat16)
+# StyleConfig field -> (type, low, high): numbers outside are refused
+CONFIG_RANGES = {
+    "pair_step": (int, 1, 999), "pair_steps": (int, 1, 200), "guidance": (float, 0.0, 20.0),
+    "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 200), "rank": (int, 1, MAX_RANK),
+    "lr": (float, 0.0, 1.0), "iterations": (int, 0, 100_000), "max_seconds": (float, 0.0, 1e7),
+    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 256), "window": (int, 2, 2000),
+    "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
+    "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
+    "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
+}
+
+
+def _check_value(name: str, value, kind, low, high) -> None:
+    if value is None and name.endswith("max_seconds"):  # no time cap
+        return
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{name}: expected true or false, got {type(value).__name__}")
+        return
+    if kind is str:
+        if value not in low:
+            raise ValueError(f"{name}: expected one of {', '.join(low)}, got {str(value)[:40]!r}")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind is int and not isinstance(value, int)):
+        raise ValueError(f"{name}: expected {'an integer' if kind is int else 'a number'}, got {type(value).__name__}")
+    if not math.isfinite(value) or not low <= value <= high:
+        raise ValueError(f"{name}: expected a number from {low} to {high}, got {value}")
+
+
+def validate_config(config) -> dict:
+    """A style file's ``config`` object -> the same dict, checked field by field (unknown fields refused)."""
+    from transfer.style import StyleConfig
+
+    if not isinstance(config, dict):
+        raise ValueError(f"config: expected an object, got {type(config).__name__}")  # noqa: TRY004 - one-line CLI error
+    known = {f.name for f in fields(StyleConfig)}
+    unknown = sorted(str(k)[:40] for k in config if k not in known)
+    if unknown:
+        raise ValueError(f"config: unknown field(s) {', '.join(unknown[:5])}")
+    for name, value in config.items():
+        kind, low, high = CONFIG_RANGES[name]
+        _check_value(f"config.{name}", value, kind, low, high)
+    return config
+
+
+def validate_meta(meta) -> dict:
+    """The JSON metadata of a style file, checked; returns it."""
+    if not isinstance(meta, dict):
+        raise ValueError(f"metadata: expected an object, got {type(meta).__name__}")  # noqa: TRY004 - one-line CLI error
+    for key in ("style", "content", "source", "base_model_sha256", "stopped_by", "partial"):
+        value = meta.get(key)
+        if value is not None and (not isinstance(value, str) or len(value) > MAX_TEXT):
+            raise ValueError(f"{key}: expected a string of at most {MAX_TEXT} characters")
+    validate_config(meta.get("config", {}))
+    rank = meta.get("rank", 8)
+    _check_value("rank", rank, int, 1, MAX_RANK)
+    for key in ("iterations", "iterations_planned", "example_frames"):
+        if key in meta:
+            _check_value(key, meta[key], int, 0, 10**7)
+    tempo = meta.get("tempo")
+    if tempo is not None:
+        _check_value("tempo", tempo, float, 0.25, 4.0)
+    return meta
+
+
+def validate_tensors(tensors: dict[str, torch.Tensor], rank: int) -> None:
+    """Adapter tensors (``*.lora_a (rank, in)``, ``*.lora_b (out, rank)``) and the optional ``example (T, D)``."""
+    if not any(k != "example" for k in tensors):
+        raise ValueError("tensors: no adapter tensors")
+    for name, t in tensors.items():
+        if name == "example":
+            if t.ndim != 2 or t.shape[1] != FEATURES.dim or not 1 <= t.shape[0] <= MAX_EXAMPLE_FRAMES:
+                raise ValueError(f"example: expected (T <= {MAX_EXAMPLE_FRAMES}, {FEATURES.dim}), got {tuple(t.shape)}")
+        elif not name.endswith(("lora_a", "lora_b")) or len(name) > 200:
+            raise ValueError(f"tensor {name[:60]!r}: not an adapter tensor")
+        elif t.ndim != 2 or (t.shape[0] if name.endswith("lora_a") else t.shape[1]) != rank:
+            raise ValueError(f"tensor {name}: expected rank {rank}, got shape {tuple(t.shape)}")
+        if t.dtype not in ADAPTER_DTYPES:
+            raise ValueError(f"tensor {name[:60]}: expected floating point values, got {t.dtype}")
+        if not torch.isfinite(t).all():
+            raise ValueError(f"tensor {name[:60]}: holds NaN or infinite values")
+
+
+def validate_style(meta, tensors: dict[str, torch.Tensor]) -> dict:
+    """Check a whole style file; returns the metadata. ValueError (one line, the field named) otherwise."""
+    meta = validate_meta(meta)
+    validate_tensors(tensors, int(meta.get("rank", 8)))
+    return meta
