@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,16 @@ from motioncore.skeleton import Skeleton
 
 _CHANNELS = {f"{a}{k}" for a in "XYZ" for k in ("position", "rotation")}
 MAX_JOINTS = 1024
+FRAME_TIME_RANGE = (1e-4, 1.0)  # seconds: 10 kHz to 1 frame per second
+_MOTION_LINE = re.compile(r"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
+_KEYWORDS = {"hierarchy": "HIERARCHY", "root": "ROOT", "joint": "JOINT", "end": "End", "site": "Site",
+             "offset": "OFFSET", "channels": "CHANNELS"}  # accepted in any case, as Blender's importer does
+
+
+def _split_motion(text: str) -> tuple[str, str | None]:
+    """(hierarchy text, text after the MOTION line or None): MOTION counts only as a line of its own."""
+    m = _MOTION_LINE.search(text)
+    return (text, None) if m is None else (text[:m.start()], text[m.end():])
 
 
 class BvhError(ValueError):
@@ -46,13 +57,13 @@ class BvhLayout:
 def _tokens(text: str):
     for lineno, line in enumerate(text.splitlines(), 1):
         for tok in line.split():
-            yield lineno, tok
+            yield lineno, _KEYWORDS.get(tok.lower(), tok)
 
 
 class _Reader:
     def __init__(self, path: str, text: str):
         self.path = path
-        self.toks = list(_tokens(text.split("MOTION", 1)[0] if "MOTION" in text else text))
+        self.toks = list(_tokens(_split_motion(text)[0]))
         self.i = 0
 
     def error(self, msg: str, lineno: int | None = None) -> BvhError:
@@ -110,6 +121,7 @@ def _parse_hierarchy(r: _Reader):
             chans = []
             for _ in range(int(n)):
                 lineno, c = r.next("a channel name")
+                c = c[:1].upper() + c[1:].lower()  # xROTATION, Xrotation, XRotation: one spelling
                 if c not in _CHANNELS or c in chans:
                     raise r.error(f"expected a channel name like Xrotation, got {c!r}", lineno)
                 chans.append(c)
@@ -136,29 +148,32 @@ def _parse_hierarchy(r: _Reader):
 
 
 def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, float, int]:
-    if "MOTION" not in text:
+    head, rest = _split_motion(text)
+    if rest is None:
         raise BvhError(f"{path}:{text.count(chr(10)) + 1}: missing MOTION section")
-    head_lines = text.split("MOTION", 1)[0].count("\n")
-    lines = text.split("MOTION", 1)[1].splitlines()
-    base = head_lines + 1  # line number of the MOTION line
+    lines = rest.splitlines()  # index 0: what follows MOTION on its own line (nothing)
+    base = head.count("\n") + 1  # line number of the MOTION line
 
-    def field(k: int, label: str) -> str:
+    def field(k: int, label: str, pattern: str) -> str:
         while k < len(lines) and not lines[k].strip():
             k += 1
-        if k >= len(lines) or not lines[k].strip().startswith(label):
+        m = re.match(pattern, lines[k], re.IGNORECASE) if k < len(lines) else None
+        if m is None:
             raise BvhError(f"{path}:{base + k}: expected '{label}'")
-        return lines[k].strip()[len(label):].strip(), k
+        return m.group(1).strip(), k
 
-    # skip anything after MOTION on the same line
-    frames_s, k = field(1 if not lines[0].strip() else 0, "Frames:")
-    time_s, k = field(k + 1, "Frame Time:")
+    frames_s, k = field(1, "Frames:", r"\s*Frames\s*:(.*)$")
+    time_s, k = field(k + 1, "Frame Time:", r"\s*Frame\s+Time\s*:(.*)$")
     try:
         n_frames = int(frames_s)
         frame_time = float(time_s)
     except ValueError:
         raise BvhError(f"{path}:{base + k}: expected a frame count and a frame time, got {frames_s!r} and {time_s!r}") from None
-    if n_frames < 1 or not (math.isfinite(frame_time) and frame_time > 0):
-        raise BvhError(f"{path}:{base + k}: expected at least one frame and a positive frame time")
+    if n_frames < 1:
+        raise BvhError(f"{path}:{base + k - 1}: expected at least one frame, got {n_frames}")
+    if not (math.isfinite(frame_time) and FRAME_TIME_RANGE[0] <= frame_time <= FRAME_TIME_RANGE[1]):
+        raise BvhError(f"{path}:{base + k}: expected a frame time from {FRAME_TIME_RANGE[0]:g} to "
+                       f"{FRAME_TIME_RANGE[1]:g} s, got {time_s}")
     rows = [ln for ln in lines[k + 1:] if ln.strip()]
     if len(rows) != n_frames:
         raise BvhError(f"{path}:{base + k + 1 + len(rows)}: declared {n_frames} frames, found {len(rows)}")
@@ -196,7 +211,9 @@ def _guess_scale(offsets: np.ndarray, parents: list[int]) -> float:
 
 
 def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") -> tuple[Motion, BvhLayout]:
-    """Parse BVH text. ``units``: "auto", "m", "cm", "mm" or metres per file unit."""
+    """Parse BVH text. ``units``: "auto", "m", "cm", "mm" or metres per file unit. Accepted as the usual
+    importers accept them: a UTF-8 byte-order mark, keywords in any case, any spacing in "Frame Time:"."""
+    text = text.removeprefix("\ufeff")
     r = _Reader(path, text)
     names, parents, offsets, channels, end_sites = _parse_hierarchy(r)
     n_ch = sum(len(c) for c in channels)

@@ -54,13 +54,20 @@ def _norm(name: str) -> str:
     return name.split(":")[-1].split("|")[-1].lower()
 
 
+MAX_JOINT_MAP_BYTES = 64 * 1024
+
+
 def load_joint_map(path: str | os.PathLike) -> dict[str, str]:
     """A user map file: a JSON object ``{"Hips": "pelvis", "Spine": "spine_01", ...}``."""
     try:
-        with open(path, encoding="utf-8") as f:
-            data = json.load(f)
-    except (OSError, json.JSONDecodeError) as e:
-        raise RetargetError(f"{os.fspath(path)}: cannot read joint map: {e}") from None
+        with open(path, "rb") as f:
+            raw = f.read(MAX_JOINT_MAP_BYTES + 1)
+        if len(raw) > MAX_JOINT_MAP_BYTES:
+            raise ValueError(f"larger than {MAX_JOINT_MAP_BYTES // 1024} KiB")
+        data = json.loads(raw.decode("utf-8-sig"))
+    except (OSError, ValueError, RecursionError) as e:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        reason = "nested too deeply" if isinstance(e, RecursionError) else str(e)[:120]
+        raise RetargetError(f"{os.fspath(path)}: cannot read joint map: {reason}") from None
     if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
         raise RetargetError(f"{os.fspath(path)}: expected a JSON object of canonical joint name -> your joint name")
     unknown = sorted(set(data) - set(CANONICAL.skeleton.names))

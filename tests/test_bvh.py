@@ -1,4 +1,5 @@
 import math
+import re
 
 import pytest
 import torch
@@ -15,6 +16,7 @@ from motioncore.bvh import (
     write_bvh,
 )
 from motioncore.motion import Motion
+from motioncore.skeleton import CANONICAL
 from tests.helpers import bandai_like_skeleton, cmu_like_skeleton, random_motion
 
 SMALL = """HIERARCHY
@@ -147,3 +149,31 @@ def test_formatted_text_is_valid_default_layout():
     m2, _ = parse_bvh(text, "x.bvh", units="m")
     _same(m, m2)
     assert math.isclose(m2.fps, 20.0)
+
+
+def test_odd_but_valid_files_that_importers_accept():
+    base = format_bvh(random_motion(seconds=1.0, fps=30.0), BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    variants = {
+        "byte-order mark": "\ufeff" + base,
+        "tab after Frame Time:": base.replace("Frame Time: ", "Frame Time:\t"),
+        "tab inside Frame Time": base.replace("Frame Time:", "Frame\tTime:"),
+        "lower-case keywords": base.replace("HIERARCHY", "hierarchy").replace("MOTION", "Motion").replace("ROOT", "root")
+        .replace("JOINT", "joint").replace("OFFSET", "offset").replace("CHANNELS", "channels").replace("Frames:", "FRAMES:")
+        .replace("Zrotation", "ZROTATION"),
+        "CRLF line ends": base.replace("\n", "\r\n"),
+        "MOTION inside a joint name": base.replace("JOINT Spine", "JOINT SpineMOTION", 1),
+    }
+    ref, _ = parse_bvh(base)
+    for label, text in variants.items():
+        motion, _ = parse_bvh(text, label)
+        assert motion.num_frames == ref.num_frames and motion.fps == ref.fps, label
+        assert torch.allclose(motion.lrot, ref.lrot, atol=1e-6), label
+
+
+@pytest.mark.parametrize("frame_time", ["5e-324", "1000", "0", "-0.03", "nan"])
+def test_frame_times_out_of_range_are_one_line(frame_time):
+    base = format_bvh(random_motion(seconds=0.5, fps=30.0), BvhLayout.default(CANONICAL.skeleton))
+    text = re.sub(r"Frame Time:.*", f"Frame Time: {frame_time}", base)
+    with pytest.raises(BvhError, match=r"clip.bvh:\d+: expected a frame time from 0.0001 to 1 s") as e:
+        parse_bvh(text, "clip.bvh")
+    assert "\n" not in str(e.value)

@@ -52,3 +52,18 @@ def test_usage_errors_exit_nonzero(argv):
     with pytest.raises(SystemExit) as e:
         main(argv)
     assert e.value.code == 2
+
+
+def test_output_locations_are_checked_before_any_work(tmp_path, capsys):
+    clip = tmp_path / "c.bvh"
+    clip.write_text("not read: the output is checked first")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    assert main(["preview", str(clip), "-o", str(folder)]) == 1
+    assert f"{folder}: -o names a folder" in capsys.readouterr().err
+    assert main(["learn", str(clip), "-o", str(folder)]) == 1
+    assert "names a folder" in capsys.readouterr().err
+    afile = tmp_path / "file.txt"
+    afile.write_text("x")
+    assert main(["apply", "a.v2s", str(clip), "-o", str(afile)]) == 1
+    assert f"{afile}: -o names a file" in capsys.readouterr().err

@@ -56,7 +56,9 @@ def test_stgcn_mix_and_reference(park_weights, clip, tmp_path):
     (["--domain", "old"], "--domain: expected one of"),
     ([], "give --domain"),
     (["--domain", "elderly", "--mix", "nonsense"], "--mix: expected a domain"),
-    (["--domain", "elderly", "--variants", "0"], "--variants: expected at least 1"),
+    (["--domain", "elderly", "--variants", "0"], "--variants: expected 1 to 64"),
+    (["--domain", "elderly", "--variants", "100000"], "--variants: expected 1 to 64"),
+    (["--domain", "elderly", "--mix", "exhausted", "--mix-steps", "100000"], "--mix-steps: expected 2 to 64"),
 ])
 def test_stgcn_bad_requests_are_one_line_errors(park_weights, clip, tmp_path, capsys, argv, message):
     rc = main(["apply", "--method", "stgcn", *argv, "--weights", str(park_weights), str(clip), "-o", str(tmp_path / "o")])
@@ -110,3 +112,14 @@ def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
     assert main(["train-classifier", "--target", "style", "--data", str(cache), "--out", str(tmp_path / "run"),
                  "--weights", str(weights), "--max-steps", "2", "-q"]) == 0
     assert weights.is_file() and "style classifier: step 2" in capsys.readouterr().out
+
+
+def test_garbage_park_weights_are_one_line(tmp_path, clip, capsys):
+    from video2style import stgcn
+
+    bad = tmp_path / "garbage.safetensors"
+    bad.write_bytes(b"\x08\x00\x00\x00\x00\x00\x00\x00{}garbage")
+    stgcn.load_stylizer.cache_clear()
+    rc = main(["apply", "--method", "stgcn", "--domain", "elderly", "--weights", str(bad), str(clip), "-o", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and f"{bad}: not Park stylizer weights" in err and "\n" not in err

@@ -89,3 +89,21 @@ def test_real_skeletons_round_trip(name, expected):
     canon = to_canonical(src, rig)
     head_up = (canon.global_positions()[:, 4, 1] - canon.global_positions()[:, 0, 1]).mean()
     assert head_up > 0.3  # Y-up after retargeting, whatever the source's up axis
+
+
+def test_bad_joint_map_files_are_one_line_naming_the_file(tmp_path):
+    from motioncore.retarget import RetargetError, load_joint_map
+
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(b"\xff\xfe\x00garbage\x80")
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 50_000 + "]" * 50_000)
+    big = tmp_path / "big.json"
+    big.write_text('{"Hips": "' + "x" * 70_000 + '"}')
+    for path in (binary, deep, big):
+        with pytest.raises(RetargetError) as e:
+            load_joint_map(path)
+        assert str(e.value).startswith(f"{path}: cannot read joint map") and "\n" not in str(e.value)
+    bom = tmp_path / "bom.json"
+    bom.write_text('\ufeff{"Hips": "pelvis"}', encoding="utf-8")
+    assert load_joint_map(bom) == {"Hips": "pelvis"}

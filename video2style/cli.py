@@ -26,6 +26,24 @@ class CliError(Exception):
     """A user-facing error: printed as one line, exit status 1."""
 
 
+def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
+    """Check an output location before any work: a file path must not be a folder, a folder must not be
+    a file, and the nearest existing folder above must be writable. Returns ``path``."""
+    import os
+
+    path = Path(path)
+    if not is_dir and path.is_dir():
+        raise CliError(f"{path}: {flag} names a folder; give a file name")
+    if is_dir and path.exists() and not path.is_dir():
+        raise CliError(f"{path}: {flag} names a file; give a folder")
+    parent = path if is_dir else path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise CliError(f"{parent}: cannot write here ({flag} {path})")
+    return path
+
+
 def _positive(v: str) -> float:
     x = float(v)
     if x <= 0:
@@ -55,7 +73,7 @@ def cmd_preview(args) -> None:
     from video2style.preview import preview_bvh_files
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
-    out = preview_bvh_files(args.clips, args.output, canonical=args.canonical, joint_map=joint_map)
+    out = preview_bvh_files(args.clips, _writable(args.output, "-o"), canonical=args.canonical, joint_map=joint_map)
     print(f"wrote {out}")
 
 
@@ -95,7 +113,7 @@ def cmd_learn(args) -> None:
         config = replace(config, iterations=args.iterations)
     if args.seed is not None:
         config = replace(config, seed=args.seed)
-    out = args.output or Path(args.input.stem + ".v2s")
+    out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
                          span=(args.start, args.end), show_bar=True)
@@ -121,6 +139,7 @@ def cmd_apply(args) -> None:
     from motioncore.retarget import load_joint_map
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    _writable(args.output, "-o", is_dir=True)
     if args.method == "stgcn":
         run_item, files = _stgcn_runner(args, joint_map)
     else:
@@ -195,7 +214,9 @@ def cmd_pose(args) -> None:
 
     if args.trajectory not in ("auto", "contacts", "camera"):
         raise CliError(f"pose: --trajectory expected auto, contacts or camera, got {args.trajectory!r}")
-    out = args.output or args.video.with_suffix(".bvh")
+    out = _writable(args.output or args.video.with_suffix(".bvh"), "-o")
+    if args.preview is not None:
+        _writable(args.preview, "--preview")
     info = pose_file(args.video, out, args.preview, args.cutoff if args.cutoff > 0 else None, progress=not args.quiet,
                      fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end))
     print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
@@ -252,6 +273,7 @@ def cmd_batch(args) -> None:
     from video2style.batch import run_batch
 
     _check_strength(args.strength)
+    _writable(args.output, "-o", is_dir=True)
     report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed)
     print(report.table())
     print(f"index: {args.output / 'index.html'}")

@@ -32,6 +32,9 @@ def load_stylizer(path: Path | None = None):
     return load_park(path or weights_path("park_stylizer.safetensors"))
 
 
+MAX_VARIANTS = 64  # outputs per clip: each is a BVH and a preview panel
+
+
 @dataclass
 class StgcnRequest:
     """What to generate: ``domain`` plus one style source (noise by default, or ``reference``), optionally ``mix``."""
@@ -46,15 +49,15 @@ class StgcnRequest:
     def validate(self, domains: list[str]) -> None:
         if self.domain not in domains:
             raise ValueError(f"--domain: expected one of {', '.join(domains)}, got {self.domain!r}")
-        if self.variants < 1:
-            raise ValueError(f"--variants: expected at least 1, got {self.variants}")
+        if not 1 <= self.variants <= MAX_VARIANTS:
+            raise ValueError(f"--variants: expected 1 to {MAX_VARIANTS}, got {self.variants}")
+        if not 2 <= self.mix_steps <= MAX_VARIANTS:
+            raise ValueError(f"--mix-steps: expected 2 to {MAX_VARIANTS}, got {self.mix_steps}")
         if self.mix is not None:
             if self.reference is not None:
                 raise ValueError("--mix: interpolates noise codes; it cannot be combined with --reference")
             if not self.mix.lstrip("-").isdigit() and self.mix not in domains:
                 raise ValueError(f"--mix: expected a domain ({', '.join(domains)}) or an integer seed, got {self.mix!r}")
-            if self.mix_steps < 2:
-                raise ValueError(f"--mix-steps: expected at least 2, got {self.mix_steps}")
 
 
 def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> list[tuple[torch.Tensor, str]]:

@@ -27,8 +27,11 @@ def load_park(path: Path | str) -> ParkModel:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with transfer.park.train.train_park")
-    model = ParkModel(load_config(path, ParkConfig))
-    model.load_state_dict(load_file(str(path)))
+    try:
+        model = ParkModel(load_config(path, ParkConfig))
+        model.load_state_dict(load_file(str(path)))
+    except Exception as e:  # noqa: BLE001 - safetensors, json and torch each raise their own errors on garbage
+        raise ValueError(f"{path}: not Park stylizer weights ({str(e).splitlines()[0][:160]})") from None
     return model.eval()
 
 
