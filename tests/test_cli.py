@@ -67,3 +67,25 @@ def test_output_locations_are_checked_before_any_work(tmp_path, capsys):
     afile.write_text("x")
     assert main(["apply", "a.v2s", str(clip), "-o", str(afile)]) == 1
     assert f"{afile}: -o names a file" in capsys.readouterr().err
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_temp_file(tmp_path, capsys, monkeypatch):
+    import errno
+    import os
+
+    from motioncore.bvh import BvhLayout, write_bvh
+    from motioncore.skeleton import CANONICAL
+    from tests.helpers import random_motion
+
+    clip = tmp_path / "c.bvh"
+    write_bvh(clip, random_motion(seconds=1.0), BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    out = tmp_path / "out" / "c.mp4"
+
+    def full(src, dst):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(dst))
+
+    monkeypatch.setattr("motioncore.render.publish", full)
+    assert main(["preview", str(clip), "-o", str(out)]) == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith(("rendering", "\r"))]
+    assert err == [f"video2style preview: error: {out}: No space left on device"]
+    assert not out.exists() and not [p for p in out.parent.iterdir() if p.name.startswith(".")]

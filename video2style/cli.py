@@ -490,6 +490,10 @@ def main(argv: list[str] | None = None) -> int:
     except (CliError, ValueError, FileNotFoundError, RuntimeError) as e:
         print(f"video2style {args.command}: error: {e}", file=sys.stderr)
         return 1
+    except OSError as e:  # a full or read-only disk, a vanished folder: one line naming the path
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"video2style {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+        return 1
     return 0
 
 
