@@ -103,7 +103,7 @@ class Style:
             tensors = load_file(str(path))
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such style file") from None
-        except (Exception, RecursionError) as e:  # noqa: BLE001 - safetensors raises its own errors on garbage
+        except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage (RecursionError included)
             raise ValueError(f"{path}: not a video2style style file ({str(e)[:200]})") from None
         try:
             validate_style(meta, tensors)
@@ -150,15 +150,15 @@ class StyleGuided(torch.nn.Module):
 
 
 def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, config: StyleConfig, generator: torch.Generator,
-            step: int | None = None, prior=None, scale: float | None = None) -> torch.Tensor:
+            step: int | None = None, prior=None) -> torch.Tensor:
     """Apply the style model to normalised content ``x (B, T, D)``: noise it K steps, denoise keeping its path.
 
     ``config.apply_mode`` "difference" (needs ``prior``): ``x + scale * (style(y) - prior(y))`` from the same
     noisy ``y``; "regenerate": the style model's own result, guided with weight ``scale`` when a prior is given.
-    ``scale`` defaults to ``config.style_scale``.
+    ``scale`` is ``config.style_scale`` (see :func:`transfer.apply.strength_settings`).
     """
     k = config.transfer_step if step is None else step
-    scale = config.style_scale if scale is None else scale
+    scale = config.style_scale
     noise = torch.randn(x.shape, generator=generator)
     y = overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alphas_cumprod[k].sqrt(), TRAJECTORY)
     n_steps = max(1, round(config.transfer_steps * k / config.transfer_step))
@@ -282,8 +282,6 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
         "stopped_by": stopped_by,
         "seconds": round(time.time() - t0, 1),
         "example_frames": int(example.shape[0]),
-        "loss_rec_first_last": [history[0][0], history[-1][0]] if history else None,
-        "loss_s_first_last": [history[0][1], history[-1][1]] if history else None,
         "loss_rec": [float(f"{h[0]:.5g}") for h in history],
         "loss_s": [float(f"{h[1]:.5g}") for h in history],
         "base_model_sha256": file_sha256(prior_path) if prior_path else None,

@@ -96,6 +96,7 @@ class OnTheFly:
         self.shared = shared if shared is not None else {}
         self.learn_seconds: list[float] = []
         self.iterations: list[int] = []
+        self._seen: set[str] = set()  # styles this variant used (for its row's learning numbers)
         self.say = progress or (lambda s: None)
 
     def _model(self, style: torch.Tensor, style_label: str):
@@ -119,7 +120,7 @@ class OnTheFly:
             self.say(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
         model, seconds, iterations = self.shared[key]
-        if key not in self.__dict__.setdefault("_seen", set()):
+        if key not in self._seen:
             self._seen.add(key)
             self.learn_seconds.append(seconds)
             self.iterations.append(iterations)
