@@ -293,16 +293,11 @@ def base_model_warning(style, source: Path) -> str | None:
 
 
 def style_config(style):
-    """The :class:`transfer.style.StyleConfig` a style file was learned with (fields it lacks: today's defaults)."""
-    from dataclasses import fields
-
+    """The :class:`transfer.style.StyleConfig` a style was learned with (fields it lacks: today's defaults).
+    A loaded file's config was validated by :meth:`transfer.style.Style.load`."""
     from transfer.style import StyleConfig
 
-    saved = style.meta.get("config", {})
-    if not isinstance(saved, dict):
-        raise ValueError(f"style file: expected a config object, got {type(saved).__name__}")  # noqa: TRY004 - one-line CLI error
-    known = {f.name for f in fields(StyleConfig)}
-    return StyleConfig(**{k: v for k, v in saved.items() if k in known})
+    return StyleConfig(**style.meta.get("config", {}))
 
 
 def clean_feet(motion: Motion, content: Motion) -> tuple[Motion, dict]:
