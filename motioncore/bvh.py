@@ -55,9 +55,10 @@ class BvhLayout:
 
 
 def _tokens(text: str):
+    """``(line number, token with keywords in their usual spelling, token as written)``."""
     for lineno, line in enumerate(text.splitlines(), 1):
         for tok in line.split():
-            yield lineno, _KEYWORDS.get(tok.lower(), tok)
+            yield lineno, _KEYWORDS.get(tok.lower(), tok), tok
 
 
 class _Reader:
@@ -75,7 +76,20 @@ class _Reader:
         if self.i >= len(self.toks):
             raise self.error(f"unexpected end of hierarchy, expected {what}")
         self.i += 1
-        return self.toks[self.i - 1]
+        return self.toks[self.i - 1][:2]
+
+    def name(self) -> tuple[int, str]:
+        """A joint name: the rest of its line as written (3ds Max names have spaces, UE has a joint
+        called ``root``), up to a ``{`` on the same line."""
+        if self.i >= len(self.toks):
+            raise self.error("unexpected end of hierarchy, expected a joint name")
+        lineno, parts = self.toks[self.i][0], []
+        while self.i < len(self.toks) and self.toks[self.i][0] == lineno and self.toks[self.i][2] != "{":
+            parts.append(self.toks[self.i][2])
+            self.i += 1
+        if not parts:
+            raise self.error("expected a joint name", lineno)
+        return lineno, " ".join(parts)
 
     def expect(self, word: str) -> int:
         lineno, tok = self.next(word)
@@ -104,7 +118,7 @@ def _parse_hierarchy(r: _Reader):
     kind = "ROOT"
     while True:
         if kind in ("ROOT", "JOINT"):
-            lineno, name = r.next("a joint name")
+            lineno, name = r.name()
             if name in names:
                 raise r.error(f"duplicate joint name {name!r}", lineno)
             if len(names) >= MAX_JOINTS:
@@ -144,6 +158,11 @@ def _parse_hierarchy(r: _Reader):
         lineno, kind = r.next("JOINT, End Site or '}'")
         if kind not in ("JOINT", "End", "}"):
             raise r.error(f"expected JOINT, End Site or '}}', got {kind!r}", lineno)
+    if r.i < len(r.toks):
+        lineno, tok = r.next("MOTION")
+        if tok == "ROOT":
+            raise r.error("a second ROOT: this file holds more than one skeleton; save one figure per file", lineno)
+        raise r.error(f"expected MOTION after the hierarchy, got {tok!r}", lineno)
     return names, parents, offsets, channels, end_sites
 
 
@@ -275,6 +294,15 @@ def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Moti
     return parse_bvh(text, path, units)
 
 
+def _depth_first(children: dict[int, list[int]]) -> list[int]:
+    order, stack = [], [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(children[j]))
+    return order
+
+
 def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
     """BVH text for ``motion`` with the channels and units of ``layout`` (default: ZXY, metres)."""
     sk = motion.skeleton
@@ -303,7 +331,8 @@ def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
     emit(0, 0)
     cols = []
     lrot = motion.lrot.double()
-    for i, chans in enumerate(layout.channels):
+    for i in _depth_first(children):  # the columns follow the hierarchy as written
+        chans = layout.channels[i]
         rot_axes = "".join(c[0] for c in chans if c.endswith("rotation"))
         order = rot_axes + "".join(a for a in "XYZ" if a not in rot_axes)
         euler = torch.rad2deg(quat.to_euler(lrot[:, i], order)) if rot_axes else None

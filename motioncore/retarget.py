@@ -1,11 +1,14 @@
 """Retargeting between the canonical skeleton and real skeletons.
 
-Each skeleton gets a :class:`Rig`: which of its joints plays each canonical joint, the
-world basis that makes it Y-up, and its "T-pose" -- the global rotation of every joint in
-the pose that matches the canonical rest pose (a T-pose facing +Z). A motion moves from one
-skeleton to another by carrying each joint's rotation *relative to its T-pose* (in the
-canonical world) onto the matching joint of the other skeleton. Unmapped joints follow their
-nearest mapped ancestor rigidly. The root translation is scaled by the leg-length ratio.
+Each skeleton gets a :class:`Rig`: which of its joints plays each canonical joint (found from
+the hierarchy and the rest pose by :mod:`motioncore.humanoid`; a user's joint map may override
+any of them), the world basis that makes it Y-up, and its "T-pose" -- the global rotation of
+every joint in the pose that matches the canonical rest pose (a T-pose facing +Z). A motion
+moves to the canonical skeleton by carrying each joint's rotation *relative to its T-pose* (in
+the canonical world) onto the matching canonical joint; the root translation is scaled by the
+leg-length ratio. Results go back with :func:`carry_edit`, which changes the original motion
+only as much as the canonical result differs from the canonical content, so joints without a
+role (fingers, twist bones, extra spine joints) and each bone's twist pass through.
 """
 from __future__ import annotations
 
@@ -16,42 +19,20 @@ from dataclasses import dataclass
 import torch
 
 from motioncore import quat
+from motioncore.humanoid import (
+    OPTIONAL_ROLES,
+    HumanoidMap,
+    NotHumanoidError,
+    axis_vector,
+    find_humanoid,
+)
 from motioncore.kinematics import fk, rest_positions, to_local
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
 
-_SIDES = {"L": "Left", "R": "Right"}
-
-
-def _limbs(fmt: dict[str, str]) -> dict[str, str]:
-    """Arm and leg entries for both sides from ``{"Shoulder": "{Side}Shoulder", ...}``."""
-    out = {}
-    for s, side in _SIDES.items():
-        for canon, pattern in fmt.items():
-            out[f"{canon}_{s}"] = pattern.format(Side=side, S=s, s=s.lower(), side=side.lower())
-    return out
-
-
-_CMU_LIMBS = {
-    "Shoulder": "{Side}Shoulder", "UpperArm": "{Side}Arm", "LowerArm": "{Side}ForeArm", "Hand": "{Side}Hand",
-    "UpperLeg": "{Side}UpLeg", "LowerLeg": "{Side}Leg", "Foot": "{Side}Foot", "Toes": "{Side}ToeBase",
-}
-
-JOINT_MAPS: dict[str, dict[str, str]] = {
-    # canonical joint -> source joint
-    "bandai": {n: n for n in CANONICAL.skeleton.names},
-    "cmu": {"Hips": "Hips", "Spine": "Spine", "Chest": "Spine1", "Neck": "Neck1", "Head": "Head", **_limbs(_CMU_LIMBS)},
-    "animated_drawings": {"Hips": "Hips", "Spine": "Spine1", "Chest": "Spine3", "Neck": "Neck", "Head": "Head", **_limbs(_CMU_LIMBS)},
-    "mixamo": {"Hips": "Hips", "Spine": "Spine1", "Chest": "Spine2", "Neck": "Neck", "Head": "Head", **_limbs(_CMU_LIMBS)},
-}
-
 
 class RetargetError(ValueError):
     pass
-
-
-def _norm(name: str) -> str:
-    return name.split(":")[-1].split("|")[-1].lower()
 
 
 MAX_JOINT_MAP_BYTES = 64 * 1024
@@ -68,38 +49,50 @@ def load_joint_map(path: str | os.PathLike) -> dict[str, str]:
     except (OSError, ValueError, RecursionError) as e:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
         reason = "nested too deeply" if isinstance(e, RecursionError) else str(e)[:120]
         raise RetargetError(f"{os.fspath(path)}: cannot read joint map: {reason}") from None
-    if not isinstance(data, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in data.items()):
-        raise RetargetError(f"{os.fspath(path)}: expected a JSON object of canonical joint name -> your joint name")
+    if not isinstance(data, dict) or not all(isinstance(k, str) and (isinstance(v, str) or v is None) for k, v in data.items()):
+        raise RetargetError(f"{os.fspath(path)}: expected a JSON object of canonical joint name -> your joint name (or null)")
     unknown = sorted(set(data) - set(CANONICAL.skeleton.names))
     if unknown:
         raise RetargetError(f"{os.fspath(path)}: not canonical joint names: {', '.join(unknown)}")
+    required_null = sorted(k for k, v in data.items() if v is None and k not in OPTIONAL_ROLES)
+    if required_null:
+        raise RetargetError(f"{os.fspath(path)}: these roles need a joint, null is only for {', '.join(sorted(OPTIONAL_ROLES))}: "
+                            f"{', '.join(required_null)}")
     return data
 
 
-def match_joint_map(skeleton: Skeleton, joint_map: dict[str, str] | None = None, source: str = "skeleton") -> tuple[str, list[int]]:
-    """Find, for every canonical joint, the index of its joint in ``skeleton``.
+def find_roles(skeleton: Skeleton, sample: Motion | None = None, joint_map: dict[str, str | None] | None = None,
+               source: str = "skeleton") -> tuple[tuple[int | None, ...], str, HumanoidMap | None]:
+    """For every canonical joint, the index of the joint of ``skeleton`` playing it (None: no such bone).
 
-    Tries ``joint_map`` if given, else the known maps. Returns (map name, indices).
+    Found by :func:`motioncore.humanoid.find_humanoid` (``sample`` helps when the rest pose is not a
+    standing pose); ``joint_map`` entries override it and, where it finds nothing, must name every role.
+    Returns ``(indices, how: "auto" | "user" | "auto+user", the automatic map or None)``.
     """
-    lookup = {_norm(n): i for i, n in enumerate(skeleton.names)}
-    candidates = {"user": joint_map} if joint_map is not None else JOINT_MAPS
-    best_missing: list[str] | None = None
-    for name, jm in candidates.items():
-        idx, missing = [], []
-        for canon in CANONICAL.skeleton.names:
-            i = lookup.get(_norm(jm.get(canon, "")))
-            (missing.append(canon) if i is None else idx.append(i))
-        if not missing:
-            return name, idx
-        if best_missing is None or len(missing) < len(best_missing):
-            best_missing = missing
-    tried = "your joint map" if joint_map is not None else "the Bandai, CMU, AnimatedDrawings and Mixamo maps"
-    raise RetargetError(
-        f"{source}: cannot map these canonical joints to the skeleton ({tried}): {', '.join(best_missing or [])}. "
-        f"Pass --joint-map MAP.json, a JSON object naming your joint for each of the {CANONICAL.num_joints} "
-        f'canonical joints, e.g. {{"Hips": "pelvis", "Spine": "spine_01", ...}}; canonical joints: '
-        f"{', '.join(CANONICAL.skeleton.names)}"
-    )
+    lookup = {n: i for i, n in enumerate(skeleton.names)}
+    lookup.update({n.lower(): i for i, n in enumerate(skeleton.names) if n.lower() not in lookup})
+    user: dict[str, int | None] = {}
+    for role, name in (joint_map or {}).items():
+        i = None if name is None else lookup.get(name, lookup.get(name.lower()))
+        if name is not None and i is None:
+            raise RetargetError(f"{source}: the joint map names {name!r} for {role}, but the skeleton has no such joint")
+        user[role] = i
+    try:
+        auto = find_humanoid(skeleton, *(() if sample is None else (sample.lrot, sample.lpos)))
+    except NotHumanoidError as e:
+        missing = [r for r in CANONICAL.skeleton.names if r not in user and r not in OPTIONAL_ROLES]
+        if joint_map is not None and not missing:
+            return tuple(user.get(r) for r in CANONICAL.skeleton.names), "user", None
+        raise RetargetError(
+            f"{source}: not a humanoid skeleton we can map: {e}. Write a joint map with `video2style skeleton "
+            f"{source} --write-map map.json`, fix it, and pass --joint-map map.json"
+            + (f" (yours lacks {', '.join(missing)})" if joint_map is not None else "")) from None
+    joints = tuple(user.get(r, j) for r, j in zip(CANONICAL.skeleton.names, auto.joints))
+    used = [j for j in joints if j is not None]
+    if len(set(used)) != len(used):
+        twice = sorted({skeleton.names[j] for j in used if used.count(j) > 1})
+        raise RetargetError(f"{source}: the joint map gives one joint two roles: {', '.join(twice)}")
+    return joints, ("auto+user" if user else "auto"), auto
 
 
 @dataclass(frozen=True)
@@ -107,11 +100,12 @@ class Rig:
     """How one skeleton relates to the canonical skeleton (see the module docstring)."""
 
     skeleton: Skeleton
-    mapping: tuple[int, ...]  # skeleton joint index for each canonical joint
+    mapping: tuple[int | None, ...]  # skeleton joint index for each canonical joint; None: no such bone
     basis: torch.Tensor  # (4,) rotation from this skeleton's world to the canonical Y-up world
     tpose: torch.Tensor  # (J, 4) global rotations, in the canonical world, of the T-pose
     scale: float  # canonical leg length / this skeleton's leg length
-    map_name: str
+    map_name: str  # "auto", "user" or "auto+user"
+    humanoid: HumanoidMap | None = None  # what the automatic mapping found (None: the user's map alone)
 
 
 def _chain_length(sk: Skeleton, top: int, bottom: int) -> float:
@@ -120,6 +114,14 @@ def _chain_length(sk: Skeleton, top: int, bottom: int) -> float:
         length += float(sk.offsets[j].norm())
         j = sk.parents[j]
     return length
+
+
+def mapped_children(mapping: tuple[int | None, ...], c: int, spec: CanonicalSpec = CANONICAL) -> list[int]:
+    """The canonical joints nearest below ``c`` that have a bone in ``mapping`` (skipping roles without one)."""
+    out = []
+    for k in spec.skeleton.children(c):
+        out.extend([k] if mapping[k] is not None else mapped_children(mapping, k, spec))
+    return out
 
 
 def detect_up_basis(gpos: torch.Tensor, hips: int, head: int) -> torch.Tensor:
@@ -134,28 +136,31 @@ def detect_up_basis(gpos: torch.Tensor, hips: int, head: int) -> torch.Tensor:
 def make_rig(
     skeleton: Skeleton,
     sample: Motion | None = None,
-    joint_map: dict[str, str] | None = None,
+    joint_map: dict[str, str | None] | None = None,
     spec: CanonicalSpec = CANONICAL,
     source: str = "skeleton",
 ) -> Rig:
-    """Build the :class:`Rig` of ``skeleton``; ``sample`` (a motion on it) decides which axis is up."""
-    map_name, mapping = match_joint_map(skeleton, joint_map, source)
+    """Build the :class:`Rig` of ``skeleton`` (roles: :func:`find_roles`); ``sample`` (a motion on it) decides
+    which axis is up, else the rest pose does."""
+    mapping, map_name, humanoid = find_roles(skeleton, sample, joint_map, source)
     canon = spec.skeleton
     if skeleton.names == canon.names:
         basis = quat.identity()
     elif sample is not None:
         basis = detect_up_basis(sample.global_positions(), mapping[0], mapping[canon.index("Head")])
+    elif humanoid is not None:
+        basis = quat.between(axis_vector(humanoid.up).float(), torch.tensor([0.0, 1.0, 0.0]))
     else:
         basis = quat.identity()
     rest = rest_positions(skeleton.offsets.double(), skeleton.parents)
     canon_rest = rest_positions(canon.offsets.double(), canon.parents)
-    of = {s: c for c, s in enumerate(mapping)}  # skeleton joint -> canonical joint
+    of = {s: c for c, s in enumerate(mapping) if s is not None}  # skeleton joint -> canonical joint
     b = basis.double()
     world = [None] * skeleton.num_joints
     for s in range(skeleton.num_joints):
         parent = world[skeleton.parents[s]] if s > 0 else b
         c = of.get(s)
-        kids = [k for k in canon.children(c)] if c is not None else []
+        kids = mapped_children(mapping, c, spec) if c is not None else []
         if not kids:
             world[s] = parent
             continue
@@ -173,33 +178,41 @@ def make_rig(
     leg_src = _chain_length(skeleton, mapping[hl], mapping[al])
     if leg_src <= 0:
         raise RetargetError(f"{source}: the leg joints have zero length; cannot scale")
-    return Rig(skeleton, tuple(mapping), basis.float(), tpose, leg_canon / leg_src, map_name)
+    return Rig(skeleton, tuple(mapping), basis.float(), tpose, leg_canon / leg_src, map_name, humanoid)
 
 
 def to_canonical(motion: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) -> Motion:
-    """A motion on ``rig.skeleton`` -> the same motion on the canonical skeleton (same fps)."""
+    """A motion on ``rig.skeleton`` -> the same motion on the canonical skeleton (same fps).
+
+    A role without a bone (no clavicle, no toe joint) keeps its canonical parent's world rotation.
+    """
     if motion.skeleton.names != rig.skeleton.names:
         raise RetargetError("to_canonical: the motion's skeleton is not the rig's skeleton")
     grot, gpos = fk(motion.lrot, motion.lpos, motion.skeleton.parents)
-    m = list(rig.mapping)
     b = rig.basis
-    # canonical global = B * G_src * T_src^-1  (T-pose of the canonical skeleton is its rest)
-    g_canon = quat.mul(quat.mul(b, grot[:, m]), quat.inv(rig.tpose[m]))
-    g_canon = quat.unroll(g_canon, dim=0)
+    g_canon = []  # canonical global = B * G_src * T_src^-1  (the canonical T-pose is its rest)
+    for c, s in enumerate(rig.mapping):
+        if s is None:
+            g_canon.append(g_canon[spec.skeleton.parents[c]])
+        else:
+            g_canon.append(quat.mul(quat.mul(b, grot[:, s]), quat.inv(rig.tpose[s])))
+    g_canon = quat.unroll(torch.stack(g_canon, dim=1), dim=0)
     lrot = to_local(g_canon, spec.skeleton.parents)
     lpos = spec.skeleton.offsets.expand(motion.num_frames, -1, -1).clone()
-    lpos[:, 0] = quat.mul_vec(b, gpos[:, m[0]]) * rig.scale
+    lpos[:, 0] = quat.mul_vec(b, gpos[:, rig.mapping[0]]) * rig.scale
     return Motion(spec.skeleton, lrot, lpos, motion.fps)
 
 
 def from_canonical(motion: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) -> Motion:
-    """A canonical motion -> the same motion on ``rig.skeleton`` (its offsets, same fps)."""
+    """A canonical motion -> the same motion on ``rig.skeleton`` (its offsets, same fps); joints without a
+    role follow their parent at their T-pose. To change a motion the skeleton already has, keeping what
+    the canonical skeleton lacks (fingers, twist), use :func:`carry_edit`."""
     if motion.skeleton.names != spec.skeleton.names:
         raise RetargetError("from_canonical: expected a motion on the canonical skeleton")
     sk = rig.skeleton
     t = motion.num_frames
     g_canon, _ = fk(motion.lrot, spec.skeleton.offsets.expand(t, -1, -1), spec.skeleton.parents)
-    of = {s: c for c, s in enumerate(rig.mapping)}
+    of = {s: c for c, s in enumerate(rig.mapping) if s is not None}
     binv = quat.inv(rig.basis)
     delta = [None] * sk.num_joints  # world-space rotation relative to the T-pose
     grot = []
@@ -217,11 +230,79 @@ def from_canonical(motion: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) ->
     hips_world = quat.mul_vec(binv, motion.lpos[:, 0]) / rig.scale
     if hips == 0:
         lpos[:, 0] = hips_world
-    else:  # joints above the hips (e.g. Bandai's joint_Root) stay at rest; solve the hips' local offset
-        pg_rot, pg_pos = fk(lrot, lpos, sk.parents)
-        p = sk.parents[hips]
-        lpos[:, hips] = quat.mul_vec(quat.inv(pg_rot[:, p]), hips_world - pg_pos[:, p])
+    else:  # joints above the hips (Bandai's joint_Root, UE's root) carry them: move the root, the only joint
+        _, g_pos = fk(lrot, lpos, sk.parents)  # a BVH file surely gives position channels
+        lpos[:, 0] += hips_world - g_pos[:, hips]
     return Motion(sk, lrot, lpos, motion.fps)
+
+
+WHOLE_CHANGE = ("Hips", "Chest", "Head")  # joints whose change is carried whole, twist included
+
+
+def canonical_change(before: Motion, after: Motion, mapping: tuple[int | None, ...],
+                     spec: CanonicalSpec = CANONICAL) -> tuple[torch.Tensor, torch.Tensor]:
+    """World-space change from ``before`` to ``after`` (canonical, same frames): rotations ``(T, 21, 4)``
+    and the hips' displacement ``(T, 3)``.
+
+    For the joints of :data:`WHOLE_CHANGE` the rotation is the whole change; for every other joint only
+    the swing that re-aims its bone (toward its nearest mapped child; a joint without one, along its own
+    offset), so the twist about the bone is the one ``before`` has.
+    """
+    if before.num_frames != after.num_frames:
+        raise RetargetError(f"canonical_change: expected motions with the same frames, got {before.num_frames} "
+                            f"and {after.num_frames}")
+    parents = spec.skeleton.parents
+    rot_b, pos_b = fk(before.lrot, before.lpos, parents)
+    rot_a, pos_a = fk(after.lrot, after.lpos, parents)
+    change = quat.mul(rot_a, quat.inv(rot_b))
+    whole = {spec.skeleton.index(n) for n in WHOLE_CHANGE}
+    for c in range(spec.num_joints):
+        if c in whole or mapping[c] is None:
+            continue
+        kids = mapped_children(mapping, c, spec)
+        if len(kids) == 1:
+            axis_b, axis_a = pos_b[:, kids[0]] - pos_b[:, c], pos_a[:, kids[0]] - pos_a[:, c]
+        else:
+            u = spec.skeleton.offsets[c]
+            axis_b, axis_a = quat.mul_vec(rot_b[:, c], u), quat.mul_vec(rot_a[:, c], u)
+        change[:, c] = quat.between(axis_b, axis_a)
+    return change, pos_a[:, 0] - pos_b[:, 0]
+
+
+def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) -> Motion:
+    """``original`` (on ``rig.skeleton``) changed the way ``after`` differs from ``before``.
+
+    ``before`` is ``original`` on the canonical skeleton (any fps, e.g. resampled to 20) and ``after`` an
+    edit of it with the same frames, such as a styled version. Each joint with a role turns in the world by
+    :func:`canonical_change` of its canonical joint; joints without one (fingers, twist bones, extra spine
+    joints, toe ends) keep their local rotations, every joint keeps its local offsets and channels, and the
+    root moves with the hips. The result has ``original``'s skeleton, frames and fps.
+    """
+    if original.skeleton.names != rig.skeleton.names:
+        raise RetargetError("carry_edit: the motion's skeleton is not the rig's skeleton")
+    change, shift = canonical_change(before, after, rig.mapping, spec)
+    # the change at each of the original's frame times
+    t = (torch.arange(original.num_frames, dtype=torch.float64) * (before.fps / original.fps)).clamp(max=before.num_frames - 1)
+    i0 = t.floor().long()
+    i1 = (i0 + 1).clamp(max=before.num_frames - 1)
+    w = (t - i0).float()
+    change = quat.slerp(change[i0], change[i1], w[:, None])
+    shift = torch.lerp(shift[i0], shift[i1], w[:, None])
+    sk = rig.skeleton
+    grot, _ = fk(original.lrot, original.lpos, sk.parents)
+    b, binv = rig.basis, quat.inv(rig.basis)
+    of = {s: c for c, s in enumerate(rig.mapping) if s is not None}
+    new = []
+    for s in range(sk.num_joints):
+        c = of.get(s)
+        if c is not None:
+            new.append(quat.mul(quat.mul(binv, quat.mul(change[:, c], b)), grot[:, s]))
+        else:
+            new.append(grot[:, s] if s == 0 else quat.mul(new[sk.parents[s]], original.lrot[:, s]))
+    lrot = quat.unroll(to_local(torch.stack(new, dim=1), sk.parents), dim=0)
+    lpos = original.lpos.clone()
+    lpos[:, 0] += quat.mul_vec(binv, shift) / rig.scale
+    return Motion(sk, lrot, lpos, original.fps)
 
 
 def place_on_floor(motion: Motion, spec: CanonicalSpec = CANONICAL, percentile: float = 0.05) -> Motion:

@@ -51,6 +51,16 @@ def bandai_like_skeleton(seed: int = 0):
     return Skeleton(names, parents, torch.stack(offsets))
 
 
+CANONICAL_NAMES_MAP = {n: n for n in CANONICAL.skeleton.names}  # a joint map for skeletons using the canonical names
+
+CMU_LIKE_ROLES = {
+    "Hips": "Hips", "Spine": "Spine", "Chest": "Spine1", "Neck": "Neck", "Head": "Head",
+    **{f"{c}_{s}": f"{side}{n}" for s, side in (("L", "Left"), ("R", "Right")) for c, n in (
+        ("Shoulder", "Shoulder"), ("UpperArm", "Arm"), ("LowerArm", "ForeArm"), ("Hand", "Hand"),
+        ("UpperLeg", "UpLeg"), ("LowerLeg", "Leg"), ("Foot", "Foot"), ("Toes", "ToeBase"))},
+}  # what the automatic mapping must find in cmu_like_skeleton()
+
+
 def cmu_like_skeleton():
     """A CMU-style hierarchy (zero-length helper joints, extra spine and finger joints) in a T-pose."""
     from motioncore.skeleton import Skeleton
@@ -69,9 +79,13 @@ def cmu_like_skeleton():
         ("LeftShoulder", "Spine1", (0, 0, 0)), ("LeftArm", "LeftShoulder", (0.18, 0.06, -0.02)),
         ("LeftForeArm", "LeftArm", (0.27, 0, 0)), ("LeftHand", "LeftForeArm", (0.19, 0, 0)),
         ("LeftFingerBase", "LeftHand", (0.0, 0, 0)), ("LeftHandIndex1", "LeftFingerBase", (0.04, 0, 0)),
+        ("LThumb", "LeftHand", (0.02, 0, 0.02)),
         ("RightShoulder", "Spine1", (0, 0, 0)), ("RightArm", "RightShoulder", (-0.18, 0.06, -0.02)),
         ("RightForeArm", "RightArm", (-0.27, 0, 0)), ("RightHand", "RightForeArm", (-0.19, 0, 0)),
+        ("RightFingerBase", "RightHand", (0.0, 0, 0)), ("RightHandIndex1", "RightFingerBase", (-0.04, 0, 0)),
+        ("RThumb", "RightHand", (-0.02, 0, 0.02)),
     ]
     names = tuple(r[0] for r in rows)
     parents = tuple(-1 if r[1] is None else names.index(r[1]) for r in rows)
-    return Skeleton(names, parents, torch.tensor([r[2] for r in rows], dtype=torch.float32))
+    ends = {names.index("Head"): torch.tensor([0.0, 0.15, 0.0])}
+    return Skeleton(names, parents, torch.tensor([r[2] for r in rows], dtype=torch.float32), ends)

@@ -9,13 +9,13 @@ from safetensors.torch import load_file
 from motioncore.bvh import BvhLayout, format_bvh
 from motioncore.representation import FEATURES
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import bandai_like_skeleton, random_motion
+from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
 from transfer.captions import caption
 from transfer.dataset import MotionDataset, build_dataset
 
 
 def _fake_bandai(path, contents=("walk", "wave-left-hand"), styles=("normal", "elderly"), per_cell=12):
-    rig = make_rig(bandai_like_skeleton())
+    rig = make_rig(bandai_like_skeleton(), joint_map=CANONICAL_NAMES_MAP)
     rot = ("Zrotation", "Xrotation", "Yrotation")
     layout = BvhLayout(tuple(("Xposition", "Yposition", "Zposition") + rot for _ in rig.skeleton.names), 0.01)
     with tarfile.open(path, "w:xz") as tar:

@@ -7,7 +7,7 @@ from motioncore.bvh import BvhError, write_bvh
 from motioncore.render import Panel, render_frame, render_video
 from motioncore.retarget import from_canonical, make_rig
 from motioncore.skeleton import CANONICAL
-from tests.helpers import bandai_like_skeleton, random_motion
+from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
 from video2style.preview import preview_bvh_files
 
 SK = CANONICAL.skeleton
@@ -79,7 +79,7 @@ def test_bad_shapes_raise_value_error(tmp_path):
 def bvh_files(tmp_path):
     canon = random_motion(seconds=1.0, seed=4, amplitude=0.15)
     write_bvh(tmp_path / "canon.bvh", canon)
-    bandai = from_canonical(random_motion(seconds=1.5, seed=5, amplitude=0.15), make_rig(bandai_like_skeleton()))
+    bandai = from_canonical(random_motion(seconds=1.5, seed=5, amplitude=0.15), make_rig(bandai_like_skeleton(), joint_map=CANONICAL_NAMES_MAP))
     write_bvh(tmp_path / "bandai.bvh", bandai)
     return [tmp_path / "canon.bvh", tmp_path / "bandai.bvh"]
 

@@ -10,15 +10,9 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
-from motioncore.motion import Motion, resample, trim
+from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
-from motioncore.retarget import (
-    Rig,
-    from_canonical,
-    make_rig,
-    place_on_floor,
-    to_canonical,
-)
+from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
 from video2style.paths import PACKAGE_ROOT
 
@@ -72,13 +66,22 @@ def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: i
 
 @dataclass
 class Clip:
-    """An input clip on the canonical skeleton at the canonical fps, and how to write results back."""
+    """An input clip on the canonical skeleton at the canonical fps, and how to write results back: the
+    motion as read (``source``, on its own skeleton and fps), its rig and BVH layout (None for videos)."""
 
     path: Path
     canonical: Motion
     rig: Rig | None = None
     layout: BvhLayout | None = None
-    fps: float = CANONICAL.fps
+    source: Motion | None = None
+
+
+def warp_clip(clip: Clip, tempo: float) -> Clip:
+    """The clip played ``tempo`` times as fast (:func:`motioncore.motion.time_warp`), its source too."""
+    if tempo == 1.0:
+        return clip
+    source = None if clip.source is None else time_warp(clip.source, tempo)
+    return Clip(clip.path, time_warp(clip.canonical, tempo), clip.rig, clip.layout, source)
 
 
 def read_clip(path: Path, joint_map: dict | None = None, progress=None,
@@ -94,22 +97,22 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
         from lifting.pipeline import video_to_motion
 
         canon = video_to_motion(path, progress=progress, span=span)
-        return Clip(path, resample(canon, CANONICAL.fps), fps=canon.fps)
+        return Clip(path, resample(canon, CANONICAL.fps))
     motion, layout = read_bvh(path)
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
-    canon = place_on_floor(to_canonical(resample(motion, CANONICAL.fps), rig))
     if span != (None, None):
-        canon = place_on_floor(trim(canon, span, str(path)))
+        motion = trim(motion, span, str(path))
+    canon = place_on_floor(to_canonical(resample(motion, CANONICAL.fps), rig))
     if canon.num_frames < 10:
         raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
-    return Clip(path, canon, rig, layout, motion.fps)
+    return Clip(path, canon, rig, layout, motion)
 
 
 def write_result(clip: Clip, result: Motion, out_path: Path) -> Path:
-    """Write ``result`` (canonical) as BVH on the clip's own skeleton and frame rate when it has one."""
+    """Write ``result`` (canonical, frame for frame with ``clip.canonical``) as BVH. A BVH clip keeps its own
+    skeleton, joints, channels, frame time and frame count (:func:`motioncore.retarget.carry_edit`)."""
     if clip.rig is not None:
-        motion = resample(from_canonical(result, clip.rig), clip.fps)
-        write_bvh(out_path, motion, clip.layout)
+        write_bvh(out_path, carry_edit(clip.source, clip.canonical, result, clip.rig), clip.layout)
     else:
         write_bvh(out_path, result, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
     return out_path
@@ -225,19 +228,14 @@ def resolve_tempo(style, tempo: str | float) -> float:
 
 
 def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: int = 0,
-                   neutralize: str = "auto", tempo: float = 1.0) -> tuple[Motion, dict]:
+                   neutralize: str = "auto") -> tuple[Motion, dict]:
     """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; feet cleaned against the content.
 
     ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
-    (only when the motion encoder reads a styled clip confidently), always or never. ``tempo``: the content is
-    first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same).
-    Returns the result and what was decided (``detected``, ``neutralized``, ``tempo``) with the foot-skating
-    ratios before and after cleanup.
+    (only when the motion encoder reads a styled clip confidently), always or never.
+    Returns the result and what was decided (``detected``, ``neutralized``) with the foot-skating ratios
+    before and after cleanup.
     """
-    from motioncore.motion import time_warp
-
-    if tempo != 1.0:
-        content = time_warp(content, tempo)
     from dataclasses import replace
 
     from transfer.apply import apply_style_motion, read_motion, strength_settings
@@ -255,16 +253,19 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
             neutral_text = m.text_encoder.encode([content_caption(reading.content)])
     raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
     result, skating = clean_feet(raw, content)
-    return result, {"detected": detected, "neutralized": neutral_text is not None, "tempo": tempo, **skating}
+    return result, {"detected": detected, "neutralized": neutral_text is not None, **skating}
 
 
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
                joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
     """:func:`stylize_motion` on one BVH; writes ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview).
-    ``tempo``: see :func:`resolve_tempo`."""
+    ``tempo`` (see :func:`resolve_tempo`): the clip is first time-warped to play this many times as fast
+    (0.7: slower, more frames; the path is the same)."""
     t0 = time.time()
-    clip = read_clip(path, joint_map)
-    result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize, resolve_tempo(style, tempo))
+    speed = resolve_tempo(style, tempo)
+    clip = warp_clip(read_clip(path, joint_map), speed)
+    result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize)
+    decided["tempo"] = speed
     ex = example_motion(style)
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0}
