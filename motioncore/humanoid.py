@@ -233,7 +233,7 @@ def _leg(g: _Geometry, hips: int, child: int, up: torch.Tensor, side: str) -> tu
 
 
 _ARM = {"ratio": 1.08, "length": 0.33, "hand": 0.6}  # upper/forearm, (upper+fore)/figure size, hand/forearm
-_NAMES = {"UpperArm": ("arm", "upperarm", "uparm", "shoulder"), "LowerArm": ("forearm", "lowerarm", "elbow"),
+_NAMES = {"UpperArm": ("arm", "upperarm", "uparm"), "LowerArm": ("forearm", "lowerarm", "elbow"),
           "Hand": ("hand", "wrist")}
 
 
@@ -259,8 +259,8 @@ def _arm(g: _Geometry, chest: int, child: int, side: str) -> tuple[dict, dict]:
                 cost = 4 * math.log(l1 / l2 / _ARM["ratio"]) ** 2
                 cost += math.log((l1 + l2) / g.size / _ARM["length"]) ** 2
                 cost += 2 * (1 - float((e - s) @ (h - e)) / (l1 * l2))
-                l3 = float((tip - h).norm())  # a hand beyond the wrist
-                cost += min(1.0, math.log(l3 / l2 / _ARM["hand"]) ** 2) if l3 > g.eps else 1.0
+                l3 = float((tip - h).norm())  # a hand beyond the wrist (Bandai's hands end at the wrist)
+                cost += min(1.0, math.log(l3 / l2 / _ARM["hand"]) ** 2) if l3 > g.eps else 0.0
                 cost -= 0.3 * sum(_core(g.sk.names[pts[x]]) in _NAMES[r] for x, r in zip((i, k, w), _NAMES))
                 if best is None or cost < best[0]:
                     best = (cost, i, k, w)

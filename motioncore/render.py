@@ -50,6 +50,9 @@ class Panel:
     label: str = ""
     color: tuple[int, int, int] | None = None  # BGR of centre bones (and all bones without names)
     names: Sequence[str] | None = None
+    markers: torch.Tensor | None = None  # (T, J, 3) twist marker per bone (see twist_markers)
+    colors: Sequence[tuple[int, int, int] | None] | None = None  # (J,) BGR per joint/bone, None: by side
+    labels: Sequence[str] | None = None  # (J,) text drawn next to each joint ("" for none)
     _pos: np.ndarray = field(init=False, repr=False)
     _track: np.ndarray = field(init=False, repr=False)
 
@@ -62,7 +65,13 @@ class Panel:
             raise ValueError(f"Panel: expected parents in [-1, {j}), got {list(self.parents)}")
         if self.names is not None and len(self.names) != j:
             raise ValueError(f"Panel: expected {j} names, got {len(self.names)}")
+        for what, v in (("colors", self.colors), ("labels", self.labels)):
+            if v is not None and len(v) != j:
+                raise ValueError(f"Panel: expected {j} {what}, got {len(v)}")
+        if self.markers is not None and tuple(self.markers.shape) != pos.shape:
+            raise ValueError(f"Panel: expected markers {pos.shape}, got {tuple(self.markers.shape)}")
         self._pos = pos.astype(np.float64)
+        self._marks = None if self.markers is None else self.markers.detach().cpu().numpy().astype(np.float64)
         self._track = _camera_track(self._pos)
 
     @property
@@ -134,7 +143,22 @@ def _draw_grid(img: np.ndarray, cam: _Camera, cx: float, cz: float, extent: floa
         cv2.line(img, (int(pa[i, 0]), int(pa[i, 1])), (int(pb[i, 0]), int(pb[i, 1])), tuple(map(int, colors[i])), 1, cv2.LINE_AA, _SHIFT)
 
 
-def _draw_figure(img: np.ndarray, panel: Panel, pose: np.ndarray, cam: _Camera) -> None:
+def twist_markers(grot: torch.Tensor, offsets: torch.Tensor, parents: Sequence[int]) -> torch.Tensor:
+    """Per bone (its parent -> joint ``j``), a unit vector across the bone that turns with the parent joint,
+    so a drawing shows the bone's twist: ``grot (T, J, 4)`` global rotations, ``offsets (J, 3)`` -> ``(T, J, 3)``."""
+    from motioncore import quat
+
+    if grot.shape[-2:] != (len(parents), 4) or tuple(offsets.shape) != (len(parents), 3):
+        raise ValueError(f"twist_markers: expected grot (T, {len(parents)}, 4) and offsets ({len(parents)}, 3), "
+                         f"got {tuple(grot.shape)} and {tuple(offsets.shape)}")
+    off = offsets.double()
+    least = torch.nn.functional.one_hot(off.abs().argmin(-1), 3).double()  # the axis the bone is least along
+    across = torch.nn.functional.normalize(torch.linalg.cross(off, least), dim=-1)
+    par = [max(p, 0) for p in parents]
+    return quat.mul_vec(grot[:, par].double(), across.expand(grot.shape[0], -1, -1)).float()
+
+
+def _draw_figure(img: np.ndarray, panel: Panel, pose: np.ndarray, cam: _Camera, marks: np.ndarray | None = None) -> None:
     """Shadow on y = 0, then bones and joints of ``pose (J, 3)``, far to near."""
     h = img.shape[0]
     thick = max(2, h // 90)
@@ -155,14 +179,26 @@ def _draw_figure(img: np.ndarray, panel: Panel, pose: np.ndarray, cam: _Camera) 
     centre = panel.color or CENTRE
     sides = [_side(n) for n in panel.names] if panel.names is not None else [0] * len(panel.parents)
     palette = {1: LEFT, -1: RIGHT, 0: centre}
+    colors = [palette[s] if panel.colors is None or panel.colors[j] is None else panel.colors[j] for j, s in enumerate(sides)]
     items = [(c[j, 2] + c[p, 2], "bone", j, p) for j, p in bones] + [(2 * c[j, 2] - 1e-3, "joint", j, j) for j in range(len(pose))]
     for _, kind, j, p in sorted(items, key=lambda it: -it[0]):
-        color = palette[sides[j]]
+        color = colors[j]
+        dark = tuple(int(v * 0.6) for v in color)
         if kind == "bone":
             cv2.line(img, tuple(map(int, px[j])), tuple(map(int, px[p])), color, thick, cv2.LINE_AA, _SHIFT)
+            length = float(np.linalg.norm(pose[j] - pose[p]))
+            if marks is not None and length > 0.04:  # a fin across the bone at its middle: shows the twist
+                mid = (pose[j] + pose[p]) / 2
+                fin = cam.to_pixels(cam.to_camera(np.stack([mid, mid + marks[j] * min(0.08, 0.35 * length)])))
+                cv2.line(img, tuple(map(int, fin[0])), tuple(map(int, fin[1])), dark, max(1, thick // 2), cv2.LINE_AA, _SHIFT)
         else:
-            dark = tuple(int(v * 0.6) for v in color)
             cv2.circle(img, tuple(map(int, px[j])), int(thick * 0.9 * (1 << _SHIFT)), dark, -1, cv2.LINE_AA, _SHIFT)
+    if panel.labels is not None:
+        scale = img.shape[0] / 1400
+        for j, text in enumerate(panel.labels):
+            if text:
+                x, y = (int(v) >> _SHIFT for v in px[j])
+                _text(img, text, (x + 6, y - 4), scale, tuple(int(v * 0.5) for v in colors[j]))
 
 
 def _text(img: np.ndarray, s: str, org: tuple[int, int], scale: float, color=(30, 30, 30)) -> None:
@@ -180,7 +216,7 @@ def _render_panel(panel: Panel, t: int, w: int, h: int, fps: float | None) -> np
     pose = panel._pos[k]
     scale = h / 800
     if np.isfinite(pose).all():
-        _draw_figure(img, panel, pose, cam)
+        _draw_figure(img, panel, pose, cam, None if panel._marks is None else panel._marks[k])
     else:
         (tw, _), _ = cv2.getTextSize("no pose", cv2.FONT_HERSHEY_SIMPLEX, 3 * scale, 1)
         _text(img, "no pose", ((w - tw) // 2, h // 2), 3 * scale, (70, 70, 70))

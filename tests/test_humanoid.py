@@ -88,7 +88,8 @@ def test_written_result_keeps_joints_channels_frame_time_and_fingers(name, tmp_p
     styled = random_motion(seconds=clip.canonical.duration, seed=9, amplitude=0.15)
     result = Motion(clip.canonical.skeleton, quat.mul(clip.canonical.lrot, styled.lrot[: clip.canonical.num_frames]),
                     clip.canonical.lpos, clip.canonical.fps)
-    out = write_result(clip, result, tmp_path / "out" / f"{name}.bvh")
+    out = tmp_path / "out" / f"{name}.bvh"
+    write_result(clip, result, out)
     src_text, out_text = src.read_text(), out.read_text()
     assert src_text.split("MOTION")[1].splitlines()[1:3] == out_text.split("MOTION")[1].splitlines()[1:3]  # frames, time
     a, la = parse_bvh(src_text, units=c.layout.scale)
@@ -137,3 +138,49 @@ def test_real_xia_and_fair1_files_map_like_their_names_say():
             assert got[f"UpperArm_{s}"] == f"{side}Arm" and got[f"Hand_{s}"] == f"{side}Hand", f
             assert got[f"UpperLeg_{s}"] == f"{side}UpLeg" and got[f"Toes_{s}"] == f"{side}ToeBase", f
         assert got["Head"] == "Head" and got["Hips"] == "Hips", f
+
+
+def test_skeleton_command_reports_writes_an_editable_map_and_draws_the_roles(tmp_path, capsys):
+    import json
+
+    import cv2
+
+    from video2style.cli import main
+
+    c = case("ue5")
+    clip = tmp_path / "manny.bvh"
+    write_bvh(clip, from_canonical(random_motion(seconds=1.0, seed=1, amplitude=0.2), make_rig(c.skeleton)), c.layout)
+    mp, png = tmp_path / "map.json", tmp_path / "roles.png"
+    assert main(["skeleton", str(clip), "--write-map", str(mp), "--preview", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "UpperArm_L   upperarm_l" in out and "centimetres" in out and "up axis: +Z" in out
+    assert "under Hand_L:" in out and "above Hips: root" in out
+    assert json.loads(mp.read_text()) == c.expected
+    img = cv2.imread(str(png))
+    assert img is not None and img.shape[0] >= 480 and img.std() > 10
+    # an edited, partial map overrides only what it names, and the report says so
+    mp.write_text(json.dumps({"Neck": "neck_02"}))
+    assert main(["skeleton", str(clip), "--joint-map", str(mp)]) == 0
+    out = capsys.readouterr().out
+    assert "Neck         neck_02" in out and "your joint map" in out and "mapping: auto+user" in out
+
+
+def test_skeleton_command_on_a_quadruped_is_one_line_and_a_template_to_fill(tmp_path, capsys):
+    import json
+
+    from video2style.cli import main
+
+    clip = tmp_path / "dog.bvh"
+    sk = NON_HUMANOID["quadruped"]
+    write_bvh(clip, Motion(sk, quat.identity(3, sk.num_joints), sk.offsets.expand(3, -1, -1).clone(), 30.0))
+    mp = tmp_path / "map.json"
+    assert main(["skeleton", str(clip)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a humanoid" in err and "--write-map" in err and not mp.exists()
+    assert main(["skeleton", str(clip), "--write-map", str(mp)]) == 1
+    assert "a template" in capsys.readouterr().err
+    assert set(json.loads(mp.read_text()).values()) == {None}
+    from video2style.pipeline import read_clip
+
+    with pytest.raises(RetargetError, match="not a humanoid"):  # what apply and learn read clips with
+        read_clip(clip)

@@ -16,6 +16,7 @@ EXAMPLES = """examples:
   video2style apply --method stgcn --domain elderly library/ -o out/ --variants 3
   video2style batch videos/ --content library/ -o results/
   video2style preview walk.bvh other.bvh -o cmp.mp4  # look at clips side by side
+  video2style skeleton my_rig.bvh                    # which joint plays each role (joint maps are rarely needed)
   video2style dataset --bandai2 bandai2.tar.xz --bandai1 bandai1-seen-styles.tar.xz
   video2style train-prior --max-minutes 60           # resumable; run again to continue
   video2style evaluate --quick                       # Bandai-2 protocol: FMD, CRA, SRA, skating
@@ -75,6 +76,31 @@ def cmd_preview(args) -> None:
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     out = preview_bvh_files(args.clips, _writable(args.output, "-o"), canonical=args.canonical, joint_map=joint_map)
     print(f"wrote {out}")
+
+
+def cmd_skeleton(args) -> None:
+    from motioncore.retarget import RetargetError, load_joint_map
+    from video2style.skeleton import inspect_skeleton, render_roles, report_lines, write_map, write_template
+
+    if args.write_map:
+        _writable(args.write_map, "--write-map")
+    if args.preview:
+        _writable(args.preview, "--preview")
+    joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    try:
+        rep = inspect_skeleton(args.file, joint_map)
+    except RetargetError:
+        if args.write_map and args.joint_map is None:  # a template to fill in
+            names = write_template(args.file, args.write_map)
+            print(f"wrote {args.write_map}: a template; put your joint's name for each role and pass it with "
+                  f"--joint-map (null only for Spine, Neck, Shoulder_L/R, Toes_L/R). Your joints: {', '.join(names)}",
+                  file=sys.stderr)
+        raise
+    print("\n".join(report_lines(rep)))
+    if args.write_map:
+        print(f"wrote {write_map(rep, args.write_map)} (edit it, then pass --joint-map {args.write_map})")
+    if args.preview:
+        print(f"wrote {render_roles(rep, args.preview)}")
 
 
 def cmd_train_prior(args) -> None:
@@ -325,8 +351,23 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("clips", nargs="+", type=Path)
     v.add_argument("-o", "--output", type=Path, required=True, help="output .mp4")
     v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
-    v.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name")
+    v.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     v.set_defaults(func=cmd_preview)
+
+    sk = sub.add_parser("skeleton", help="show which joint of a BVH file plays each role (and write a joint map)",
+                        epilog="examples:\n  video2style skeleton mixamo_walk.bvh\n"
+                               "  video2style skeleton rig.bvh --write-map map.json --preview roles.png\n"
+                               "  video2style skeleton rig.bvh --joint-map map.json   # check your edits\n\n"
+                               "Roles are found from the hierarchy and the rest pose (T or A pose, any up axis, any\n"
+                               "units); names only tell left from right when the feet cannot. A joint map is rarely\n"
+                               "needed: write one here, fix the roles that are wrong, and pass it to learn/apply.\n"
+                               "A map may be partial: it overrides only the roles it names (null: no such bone).",
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    sk.add_argument("file", type=Path, help="a BVH file")
+    sk.add_argument("--write-map", type=Path, metavar="MAP.json", help="write the mapping as an editable joint map")
+    sk.add_argument("--preview", type=Path, metavar="IMAGE.png", help="draw the pose read with the roles coloured")
+    sk.add_argument("--joint-map", type=Path, metavar="MAP.json", help="your map: overrides the roles it names")
+    sk.set_defaults(func=cmd_skeleton)
 
     lr = sub.add_parser("learn", help="learn a style from a video or a BVH clip",
                         epilog="examples:\n  video2style learn old_man.mp4 --style old -o old.v2s\n"
@@ -348,7 +389,7 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--seed", type=int, help=f"random seed (default: {StyleConfig.seed})")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
-    lr.add_argument("--joint-map", type=Path, help="JSON map of canonical joint -> your joint name (BVH input)")
+    lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     lr.set_defaults(func=cmd_learn)
 
     ap = sub.add_parser("apply", help="apply a learned style (or Park et al.'s ST-GCN stylizer) to BVH clips",
@@ -378,7 +419,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mix-steps", type=int, default=5, help="stgcn: interpolation outputs, ends included (default: %(default)s)")
     ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
     ap.add_argument("--no-preview", action="store_true")
-    ap.add_argument("--joint-map", type=Path)
+    ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     ap.set_defaults(func=cmd_apply)
 
     po = sub.add_parser("pose", help="video of one person -> BVH on the canonical skeleton (+ preview)",

@@ -108,14 +108,18 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     return Clip(path, canon, rig, layout, motion)
 
 
-def write_result(clip: Clip, result: Motion, out_path: Path) -> Path:
+def write_result(clip: Clip, result: Motion, out_path: Path) -> Motion:
     """Write ``result`` (canonical, frame for frame with ``clip.canonical``) as BVH. A BVH clip keeps its own
-    skeleton, joints, channels, frame time and frame count (:func:`motioncore.retarget.carry_edit`)."""
-    if clip.rig is not None:
-        write_bvh(out_path, carry_edit(clip.source, clip.canonical, result, clip.rig), clip.layout)
-    else:
+    skeleton, joints, channels, frame time and frame count (:func:`motioncore.retarget.carry_edit`), so each
+    bone keeps the content's twist. Returns ``result`` with the rotations as written (for previews)."""
+    if clip.rig is None:
         write_bvh(out_path, result, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
-    return out_path
+        return result
+    written = carry_edit(clip.source, clip.canonical, result, clip.rig)
+    write_bvh(out_path, written, clip.layout)
+    lrot = resample(to_canonical(written, clip.rig), CANONICAL.fps).lrot
+    idx = torch.arange(result.num_frames).clamp(max=lrot.shape[0] - 1)
+    return Motion(result.skeleton, lrot[idx], result.lpos, result.fps)
 
 
 def example_motion(style) -> Motion | None:
@@ -316,17 +320,23 @@ def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, 
     """Write each ``(result, tag)`` as BVH on the clip's skeleton (``<name>.bvh`` for one result, else
     ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths."""
     stem = Path(clip.path).stem
-    outputs = []
+    outputs, written = [], []
     for motion, tag in results:
         name = f"{stem}.bvh" if len(results) == 1 else f"{stem}_{tag}.bvh"
-        outputs.append(str(write_result(clip, motion, Path(out_dir) / name)))
+        written.append((write_result(clip, motion, Path(out_dir) / name), tag))
+        outputs.append(str(Path(out_dir) / name))
     info = {"output": outputs[0] if len(outputs) == 1 else outputs}
     if preview:
-        from motioncore.render import Panel, render_video
+        from motioncore.kinematics import fk
+        from motioncore.render import Panel, render_video, twist_markers
 
         sk = CANONICAL.skeleton
-        panels = [Panel(m.global_positions(), sk.parents, label, names=sk.names)
-                  for m, label in [(clip.canonical, "content"), *extra, *results]]
+
+        def panel(m: Motion, label: str) -> Panel:
+            grot, gpos = fk(m.lrot, m.lpos, sk.parents)
+            return Panel(gpos, sk.parents, label, names=sk.names, markers=twist_markers(grot, sk.offsets, sk.parents))
+
+        panels = [panel(m, label) for m, label in [(clip.canonical, "content"), *extra, *written]]
         size = (360, 360) if len(panels) <= 4 else (280, 280)
         info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info
