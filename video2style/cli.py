@@ -80,7 +80,13 @@ def cmd_preview(args) -> None:
 
 def cmd_skeleton(args) -> None:
     from motioncore.retarget import RetargetError, load_joint_map
-    from video2style.skeleton import inspect_skeleton, render_roles, report_lines, write_map, write_template
+    from video2style.skeleton import (
+        inspect_skeleton,
+        render_roles,
+        report_lines,
+        write_map,
+        write_template,
+    )
 
     if args.write_map:
         _writable(args.write_map, "--write-map")
