@@ -114,6 +114,9 @@ class _Geometry:
         self.subtree: list[list[int]] = [[j] for j in range(sk.num_joints)]
         for j in reversed(range(1, sk.num_joints)):
             self.subtree[sk.parents[j]].extend(self.subtree[j])
+        self.depth = [0.0] * sk.num_joints  # length along the bones from the root
+        for j in range(1, sk.num_joints):
+            self.depth[j] = self.depth[sk.parents[j]] + float(sk.offsets[j].norm())
 
     def extent(self, j: int) -> float:
         """Size (largest axis extent) of the subtree of ``j``, end sites included."""
@@ -136,9 +139,14 @@ class _Geometry:
         return out[::-1]
 
     def farthest(self, origin: torch.Tensor, child: int, key=None) -> tuple[int, torch.Tensor]:
-        """The joint of ``child``'s subtree owning the point that maximises ``key`` (default: distance from origin)."""
-        key = key or (lambda p: float((p - origin).norm()))
-        best = max(((key(p), j, p) for j in self.subtree[child] for p in self.points(j)), key=lambda t: t[0])
+        """The joint of ``child``'s subtree owning the point that maximises ``key(point)``; by default the
+        point farthest along the bones (the longest finger's tip, whatever the pose)."""
+        if key is None:
+            cands = [(self.depth[j] + (float(self.sites[j].norm()) if k else 0.0), j, p)
+                     for j in self.subtree[child] for k, p in enumerate(self.points(j))]
+        else:
+            cands = [(key(p), j, p) for j in self.subtree[child] for p in self.points(j)]
+        best = max(cands, key=lambda t: t[0])
         return best[1], best[2]
 
     def chain(self, top: int, child: int) -> tuple[list[int], torch.Tensor]:
