@@ -1,13 +1,20 @@
 """Import two BVH files into Blender (headless) and compare each bone's twist about its own axis.
 
-    blender -b --python benchmarks/blender_twist.py -- INPUT.bvh OUTPUT.bvh
+    blender -b --python benchmarks/blender_twist.py -- INPUT.bvh OUTPUT.bvh [ROLES.json]
 
-Prints the figure's size in both and the twist difference per bone (swing-twist split of the world
-rotation difference about the output bone's axis), sampled on 20 frames. Debian's Blender 3.4 opens
+ROLES.json: the map ``video2style skeleton INPUT.bvh --write-map ROLES.json`` writes; with it the
+role bones are reported apart from the others.
+
+Prints the figure's size in both and the twist difference per bone (swing-twist split of the rotation
+from the input bone to the output bone, in the input bone's frame, about the bone's own Y axis),
+sampled on 20 frames of the clip. Bones are split into those that play a canonical role and the
+rest (fingers, helpers), which follow their parent and so turn with its bend. Debian's Blender 3.4 opens
 BVH files with mode 'rU', which Python 3.11 refuses; the script strips the 'U'.
 """
 import builtins
+import json
 import math
+import statistics
 import sys
 
 import bpy
@@ -19,7 +26,7 @@ from mathutils import Quaternion
 argv = sys.argv[sys.argv.index("--") + 1:]
 def load(path):
     bpy.ops.object.select_all(action='SELECT'); bpy.ops.object.delete()
-    bpy.ops.import_anim.bvh(filepath=path, global_scale=0.01, rotate_mode='NATIVE')
+    bpy.ops.import_anim.bvh(filepath=path, global_scale=1.0, rotate_mode='NATIVE')  # the importer's default
     ob = next(o for o in bpy.data.objects if o.type == 'ARMATURE')
     return ob
 def sample(ob, frames):
@@ -30,25 +37,31 @@ def sample(ob, frames):
         for pb in ob.pose.bones:
             out[(f, pb.name)] = ((ob.matrix_world @ pb.matrix).to_quaternion(), (ob.matrix_world @ pb.head).copy(), (ob.matrix_world @ pb.tail).copy())
     return out
-a = load(argv[0]); fa = bpy.context.scene.frame_end
+a = load(argv[0]); fa = int(a.animation_data.action.frame_range[1])
 fr = list(range(1, fa + 1, max(1, fa // 20)))
 A = sample(a, fr); heights_a = max(v[1].z for v in A.values()) - min(v[1].z for v in A.values())
 b = load(argv[1]); B = sample(b, fr); heights_b = max(v[1].z for v in B.values()) - min(v[1].z for v in B.values())
-print("frames", fa, bpy.context.scene.frame_end, f"figure height a/b {heights_a:.2f} {heights_b:.2f} m")
+print("frames", fa, f"figure height a/b {heights_a:.2f} {heights_b:.2f} file units")
 worst = {}
 for k, (qa, ha, ta) in A.items():
     qb, hb, tb = B[k]
-    axis = (tb - hb).normalized()
-    d = qa.rotation_difference(qb)
-    # twist about bone axis: project the rotation's vector part on the axis (swing-twist)
-    v = d.axis * math.sin(d.angle / 2)
-    proj = axis.dot(v)
-    tw = Quaternion((d.w, *(axis * proj))).normalized() if abs(d.w) + abs(proj) > 1e-9 else Quaternion()
-    ang = math.degrees(2 * math.acos(min(1, abs(tw.w))))
+    # the difference in the input bone's own frame, where the bone runs along Y; its twist is the part
+    # about Y (swing-twist split)
+    d = qa.conjugated() @ qb
+    tw = Quaternion((d.w, 0.0, d.y, 0.0))
+    ang = math.degrees(2 * math.acos(min(1.0, abs(tw.w) / max(tw.magnitude, 1e-12))))
     worst.setdefault(k[1], []).append(ang)
-import statistics
-
-allv = sorted(x for v in worst.values() for x in v)
-print(f"twist difference deg: median {statistics.median(allv):.1f}, p99 {allv[int(0.99 * (len(allv) - 1))]:.1f}, max {allv[-1]:.1f}")
-for n, v in sorted(worst.items(), key=lambda kv: -max(kv[1]))[:5]:
-    print(f"  {n:14s} max {max(v):.1f}")
+if len(argv) > 2:
+    with open(argv[2]) as f:
+        roles = {v for v in json.load(f).values() if v}
+else:
+    roles = set(worst)
+for what, names in (("role bones", roles), ("other bones", set(worst) - roles)):
+    allv = sorted(x for n in names if n in worst for x in worst[n])
+    if not allv:
+        continue
+    flipped = sum(x > 150 for x in allv)
+    print(f"{what}: twist difference deg: median {statistics.median(allv):.1f}, p99 {allv[int(0.99 * (len(allv) - 1))]:.1f}, "
+          f"max {allv[-1]:.1f}, flipped (>150) {flipped}")
+    for n, v in sorted(((n, worst[n]) for n in names if n in worst), key=lambda kv: -max(kv[1]))[:4]:
+        print(f"  {n:14s} max {max(v):.1f}")

@@ -45,6 +45,7 @@ class BvhLayout:
 
     channels: tuple[tuple[str, ...], ...]
     scale: float = 1.0
+    frame_time: str | None = None  # "Frame Time:" as the file wrote it; kept on writing at the same frame rate
 
     @staticmethod
     def default(skeleton: Skeleton, order: str = "ZXY", scale: float = 1.0) -> BvhLayout:
@@ -166,7 +167,7 @@ def _parse_hierarchy(r: _Reader):
     return names, parents, offsets, channels, end_sites
 
 
-def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, float, int]:
+def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, float, int, str]:
     head, rest = _split_motion(text)
     if rest is None:
         raise BvhError(f"{path}:{text.count(chr(10)) + 1}: missing MOTION section")
@@ -211,7 +212,7 @@ def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, fl
                 raise BvhError(f"{path}:{base + k + 1 + off}: expected {n_channels} values per frame, got {len(ln.split())}")
     if not np.isfinite(data).all():
         raise BvhError(f"{path}: frame data holds NaN or infinite values")
-    return data.reshape(n_frames, n_channels), frame_time, n_frames
+    return data.reshape(n_frames, n_channels), frame_time, n_frames, time_s
 
 
 def _guess_scale(offsets: np.ndarray, parents: list[int]) -> float:
@@ -236,7 +237,7 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     r = _Reader(path, text)
     names, parents, offsets, channels, end_sites = _parse_hierarchy(r)
     n_ch = sum(len(c) for c in channels)
-    data, frame_time, n_frames = _motion_block(path, text, n_ch)
+    data, frame_time, n_frames, frame_time_text = _motion_block(path, text, n_ch)
     off = np.asarray(offsets, dtype=np.float64)
     if units == "auto":
         scale = _guess_scale(off, parents)
@@ -278,7 +279,7 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     if abs(fps - round(fps)) < 1e-4 * fps:  # "0.0333333" means 30 fps
         fps = float(round(fps))
     motion = Motion(skeleton, lrot.float(), torch.from_numpy(lpos).float(), fps)
-    return motion, BvhLayout(tuple(channels), scale)
+    return motion, BvhLayout(tuple(channels), scale, frame_time_text)
 
 
 def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Motion, BvhLayout]:
@@ -342,7 +343,10 @@ def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
             else:
                 cols.append(euler[:, order.index(c[0])])
     frames = torch.stack(cols, dim=1).numpy() if cols else np.zeros((motion.num_frames, 0))
-    out += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {1.0 / motion.fps:.8f}"]
+    frame_time = f"{1.0 / motion.fps:.8f}"
+    if layout.frame_time is not None and abs(float(layout.frame_time) * motion.fps - 1.0) < 1e-4:
+        frame_time = layout.frame_time
+    out += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {frame_time}"]
     out += [" ".join(f"{v:.6f}" for v in row) for row in frames]
     return "\n".join(out) + "\n"
 

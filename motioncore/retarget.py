@@ -236,51 +236,65 @@ def from_canonical(motion: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) ->
     return Motion(sk, lrot, lpos, motion.fps)
 
 
-WHOLE_CHANGE = ("Hips", "Chest", "Head")  # joints whose change is carried whole, twist included
+def bone_axes(skeleton: Skeleton) -> torch.Tensor:
+    """Each joint's bone direction in its rest frame, ``(J, 3)`` unit vectors, the way Blender's BVH importer
+    draws bones: toward the one child, toward the mean of several children, along the End Site; +Y where that
+    is empty, and a bone that still has no length continues its parent's bone."""
+    sk = skeleton
+    off = sk.offsets.double()
+    tail = []  # Blender's rest_tail_local - rest_head_local
+    vec = []  # the bone as drawn, before the zero-length fixes
+    for j in range(sk.num_joints):
+        kids = sk.children(j)
+        if not kids:
+            v = sk.end_sites.get(j, torch.zeros(3)).double()
+            t = v
+        elif len(kids) == 1:
+            v = t = off[kids[0]]
+        else:  # Blender averages the children's offsets into the tail but compares it with the joint's own
+            v = off[kids].mean(0)
+            t = v - off[j]
+        if float(t.norm()) <= 1e-5:
+            v = v + torch.tensor([0.0, 1e-3, 0.0], dtype=torch.float64)
+        tail.append(t)
+        vec.append(v)
+    out = []
+    for j in range(sk.num_joints):
+        v = vec[j]
+        if float(v.norm()) < 1e-6:
+            p = sk.parents[j]
+            v = tail[p] if p >= 0 and float(tail[p].norm()) > 1e-9 else torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)
+        out.append(v / v.norm())
+    return torch.stack(out)
 
 
-def canonical_change(before: Motion, after: Motion, mapping: tuple[int | None, ...],
-                     spec: CanonicalSpec = CANONICAL) -> tuple[torch.Tensor, torch.Tensor]:
-    """World-space change from ``before`` to ``after`` (canonical, same frames): rotations ``(T, 21, 4)``
-    and the hips' displacement ``(T, 3)``.
-
-    For the joints of :data:`WHOLE_CHANGE` the rotation is the whole change; for every other joint only
-    the swing that re-aims its bone (toward its nearest mapped child; a joint without one, along its own
-    offset), so the twist about the bone is the one ``before`` has.
-    """
+def canonical_change(before: Motion, after: Motion) -> tuple[torch.Tensor, torch.Tensor]:
+    """World-space change from ``before`` to ``after`` (canonical, same frames): each joint's rotation
+    ``(T, 21, 4)`` and the hips' displacement ``(T, 3)``."""
     if before.num_frames != after.num_frames:
         raise RetargetError(f"canonical_change: expected motions with the same frames, got {before.num_frames} "
                             f"and {after.num_frames}")
-    parents = spec.skeleton.parents
+    parents = before.skeleton.parents
     rot_b, pos_b = fk(before.lrot, before.lpos, parents)
     rot_a, pos_a = fk(after.lrot, after.lpos, parents)
-    change = quat.mul(rot_a, quat.inv(rot_b))
-    whole = {spec.skeleton.index(n) for n in WHOLE_CHANGE}
-    for c in range(spec.num_joints):
-        if c in whole or mapping[c] is None:
-            continue
-        kids = mapped_children(mapping, c, spec)
-        if len(kids) == 1:
-            axis_b, axis_a = pos_b[:, kids[0]] - pos_b[:, c], pos_a[:, kids[0]] - pos_a[:, c]
-        else:
-            u = spec.skeleton.offsets[c]
-            axis_b, axis_a = quat.mul_vec(rot_b[:, c], u), quat.mul_vec(rot_a[:, c], u)
-        change[:, c] = quat.between(axis_b, axis_a)
-    return change, pos_a[:, 0] - pos_b[:, 0]
+    return quat.mul(rot_a, quat.inv(rot_b)), pos_a[:, 0] - pos_b[:, 0]
 
 
-def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) -> Motion:
+def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig) -> Motion:
     """``original`` (on ``rig.skeleton``) changed the way ``after`` differs from ``before``.
 
     ``before`` is ``original`` on the canonical skeleton (any fps, e.g. resampled to 20) and ``after`` an
-    edit of it with the same frames, such as a styled version. Each joint with a role turns in the world by
-    :func:`canonical_change` of its canonical joint; joints without one (fingers, twist bones, extra spine
-    joints, toe ends) keep their local rotations, every joint keeps its local offsets and channels, and the
-    root moves with the hips. The result has ``original``'s skeleton, frames and fps.
+    edit of it with the same frames, such as a styled version. The Hips turn in the world by their canonical
+    joint's whole change (:func:`canonical_change`: the figure's heading and tilt); every other joint with a
+    role by the swing part of it about its own bone (:func:`bone_axes`): the edit may bend a bone, never spin
+    it, so each bone keeps the original's twist. Joints
+    without a role (fingers, twist bones, extra spine joints, toe ends) keep their local rotations, every
+    joint keeps its local offsets, and the root moves with the hips. The result has ``original``'s
+    skeleton, frames and fps.
     """
     if original.skeleton.names != rig.skeleton.names:
         raise RetargetError("carry_edit: the motion's skeleton is not the rig's skeleton")
-    change, shift = canonical_change(before, after, rig.mapping, spec)
+    change, shift = canonical_change(before, after)
     # the change at each of the original's frame times
     t = (torch.arange(original.num_frames, dtype=torch.float64) * (before.fps / original.fps)).clamp(max=before.num_frames - 1)
     i0 = t.floor().long()
@@ -290,13 +304,18 @@ def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig, spec: 
     shift = torch.lerp(shift[i0], shift[i1], w[:, None])
     sk = rig.skeleton
     grot, _ = fk(original.lrot, original.lpos, sk.parents)
+    axes = bone_axes(sk).float()
     b, binv = rig.basis, quat.inv(rig.basis)
     of = {s: c for c, s in enumerate(rig.mapping) if s is not None}
     new = []
     for s in range(sk.num_joints):
         c = of.get(s)
-        if c is not None:
+        if c == 0:
             new.append(quat.mul(quat.mul(binv, quat.mul(change[:, c], b)), grot[:, s]))
+        elif c is not None:
+            axis = quat.mul_vec(grot[:, s], axes[s])  # the bone in the world, as the original has it
+            turned = quat.mul_vec(quat.mul(binv, quat.mul(change[:, c], b)), axis)
+            new.append(quat.mul(quat.between(axis, turned), grot[:, s]))
         else:
             new.append(grot[:, s] if s == 0 else quat.mul(new[sk.parents[s]], original.lrot[:, s]))
     lrot = quat.unroll(to_local(torch.stack(new, dim=1), sk.parents), dim=0)
