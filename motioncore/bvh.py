@@ -10,6 +10,7 @@ import math
 import os
 import re
 import tempfile
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -167,7 +168,17 @@ def _parse_hierarchy(r: _Reader):
     return names, parents, offsets, channels, end_sites
 
 
-def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, float, int, str]:
+def _numbers(text: str) -> np.ndarray | None:
+    """All whitespace-separated numbers of ``text`` (parsed in C: a 2-hour take is millions), None if any is not one."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # numpy warns, and stops, at the first non-number
+        try:
+            return np.fromstring(text, dtype=np.float64, sep=" ")
+        except (ValueError, DeprecationWarning):
+            return None
+
+
+def _motion_block(path: str, text: str, n_channels: int, declared_only: bool = False) -> tuple[np.ndarray | None, float, int, str]:
     head, rest = _split_motion(text)
     if rest is None:
         raise BvhError(f"{path}:{text.count(chr(10)) + 1}: missing MOTION section")
@@ -194,12 +205,13 @@ def _motion_block(path: str, text: str, n_channels: int) -> tuple[np.ndarray, fl
     if not (math.isfinite(frame_time) and FRAME_TIME_RANGE[0] <= frame_time <= FRAME_TIME_RANGE[1]):
         raise BvhError(f"{path}:{base + k}: expected a frame time from {FRAME_TIME_RANGE[0]:g} to "
                        f"{FRAME_TIME_RANGE[1]:g} s, got {time_s}")
+    if declared_only:  # the caller reads the numbers itself
+        return None, frame_time, n_frames, time_s
     rows = [ln for ln in lines[k + 1:] if ln.strip()]
     if len(rows) != n_frames:
         raise BvhError(f"{path}:{base + k + 1 + len(rows)}: declared {n_frames} frames, found {len(rows)}")
-    try:
-        data = np.array(" ".join(rows).split(), dtype=np.float64)
-    except ValueError:
+    data = _numbers("\n".join(rows))
+    if data is None:
         for off, ln in enumerate(lines[k + 1:]):
             try:
                 np.array(ln.split(), dtype=np.float64)
@@ -234,10 +246,20 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     """Parse BVH text. ``units``: "auto", "m", "cm", "mm" or metres per file unit. Accepted as the usual
     importers accept them: a UTF-8 byte-order mark, keywords in any case, any spacing in "Frame Time:"."""
     text = text.removeprefix("\ufeff")
-    r = _Reader(path, text)
-    names, parents, offsets, channels, end_sites = _parse_hierarchy(r)
-    n_ch = sum(len(c) for c in channels)
+    hierarchy = _parse_hierarchy(_Reader(path, text))
+    n_ch = sum(len(c) for c in hierarchy[3])
     data, frame_time, n_frames, frame_time_text = _motion_block(path, text, n_ch)
+    return _assemble(hierarchy, data, frame_time, frame_time_text, units)
+
+
+_CHUNK = 20_000  # frames converted at a time: bounds the float64 temporaries of a long take
+
+
+def _assemble(hierarchy, data: np.ndarray, frame_time: float, frame_time_text: str,
+              units: str | float) -> tuple[Motion, BvhLayout]:
+    """The motion and layout from the parsed hierarchy and the ``(frames, channels)`` numbers."""
+    names, parents, offsets, channels, end_sites = hierarchy
+    n_frames = data.shape[0]
     off = np.asarray(offsets, dtype=np.float64)
     if units == "auto":
         scale = _guess_scale(off, parents)
@@ -250,25 +272,29 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
         scale = float(units)
 
     j = len(names)
-    lpos = np.broadcast_to(off * scale, (n_frames, j, 3)).copy()
-    euler = np.zeros((n_frames, j, 3))
-    orders = []
+    lpos = torch.from_numpy(off * scale).float().expand(n_frames, j, 3).clone()
+    lrot = torch.empty(n_frames, j, 4)
+    cols, orders = [], []  # per joint: the data column of each of X, Y, Z rotation (-1: none), Euler order
     col = 0
     for ji, chans in enumerate(channels):
         rot_axes = "".join(c[0] for c in chans if c.endswith("rotation"))
+        where = [-1, -1, -1]
         for c in chans:
             if c.endswith("position"):
-                lpos[:, ji, "XYZ".index(c[0])] = data[:, col] * scale
+                lpos[:, ji, "XYZ".index(c[0])] = torch.from_numpy(data[:, col] * scale)
             else:
-                euler[:, ji, rot_axes.index(c[0])] = np.deg2rad(data[:, col])
+                where[rot_axes.index(c[0])] = col
             col += 1
+        cols.append(where)
         # a joint with fewer than 3 rotation channels: fill the order with the missing axes (angle 0)
         orders.append(rot_axes + "".join(a for a in "XYZ" if a not in rot_axes))
-    euler_t = torch.from_numpy(euler)
-    lrot = torch.empty(n_frames, j, 4, dtype=torch.float64)
     for order in set(orders):
         sel = [i for i, o in enumerate(orders) if o == order]
-        lrot[:, sel] = quat.from_euler(euler_t[:, sel], order)
+        idx = np.asarray([cols[i] for i in sel])  # (sel, 3); -1: no such channel, angle 0
+        for a in range(0, n_frames, _CHUNK):
+            part = data[a:a + _CHUNK]
+            euler = np.where(idx >= 0, part[:, np.maximum(idx, 0)], 0.0)  # (chunk, sel, 3)
+            lrot[a:a + _CHUNK, sel] = quat.from_euler(torch.from_numpy(np.deg2rad(euler)), order).float()
     skeleton = Skeleton(
         tuple(names),
         tuple(parents),
@@ -278,14 +304,20 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) < 1e-4 * fps:  # "0.0333333" means 30 fps
         fps = float(round(fps))
-    motion = Motion(skeleton, lrot.float(), torch.from_numpy(lpos).float(), fps)
-    return motion, BvhLayout(tuple(channels), scale, frame_time_text)
+    return Motion(skeleton, lrot, lpos, fps), BvhLayout(tuple(channels), scale, frame_time_text)
+
+
+STREAM_BYTES = 16 * 1024 * 1024  # larger files: the frame numbers are read straight from the file
 
 
 def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Motion, BvhLayout]:
     """Read a BVH file; raises :class:`BvhError` naming the file and line on malformed input."""
     path = os.fspath(path)
     try:
+        if os.path.getsize(path) > STREAM_BYTES:
+            fast = _read_large(path, units)
+            if fast is not None:
+                return fast
         with open(path, "r", encoding="utf-8", errors="replace", newline=None) as f:
             text = f.read()
     except OSError as e:
@@ -293,6 +325,46 @@ def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Moti
     if not text.strip():
         raise BvhError(f"{path}:1: empty file")
     return parse_bvh(text, path, units)
+
+
+def _read_large(path: str, units: str | float) -> tuple[Motion, BvhLayout] | None:
+    """A long take without holding its text: the header as text, the numbers parsed from the file by numpy.
+    None when anything is off (the text path then says what, with the line)."""
+    head, tail = [], []
+    with open(path, "rb") as f:
+        size = 0
+        for raw in f:
+            size += len(raw)
+            if size > STREAM_BYTES:
+                return None
+            line = raw.decode("utf-8", errors="replace")
+            (tail if tail or _MOTION_LINE.match(line.rstrip("\n")) else head).append(line)
+            if len([t for t in tail if t.strip()]) == 3:  # MOTION, Frames:, Frame Time:
+                break
+        else:
+            return None
+        text = "".join(head + tail)
+        try:
+            hierarchy = _parse_hierarchy(_Reader(path, text.removeprefix("\ufeff")))
+            n_ch = sum(len(c) for c in hierarchy[3])
+            _, frame_time, n_frames, frame_time_text = _motion_block(path, text + " ".join(["0"] * n_ch) + "\n", n_ch,
+                                                                    declared_only=True)
+        except BvhError:
+            return None
+        data = np.empty((n_frames, n_ch), dtype=np.float32)  # float32 like the motion: half the memory
+        row = 0
+        while True:
+            lines = [ln for ln in f.readlines(1 << 24) if ln.strip()]  # ~16 MB of text at a time
+            if not lines:
+                break
+            part = _numbers(b"".join(lines).decode("ascii", errors="replace"))
+            if part is None or part.size != len(lines) * n_ch or row + len(lines) > n_frames:
+                return None
+            data[row:row + len(lines)] = part.reshape(len(lines), n_ch)
+            row += len(lines)
+    if row != n_frames or not np.isfinite(data).all():
+        return None
+    return _assemble(hierarchy, data, frame_time, frame_time_text, units)
 
 
 def _depth_first(children: dict[int, list[int]]) -> list[int]:
@@ -304,10 +376,8 @@ def _depth_first(children: dict[int, list[int]]) -> list[int]:
     return order
 
 
-def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
-    """BVH text for ``motion`` with the channels and units of ``layout`` (default: ZXY, metres)."""
+def _header(motion: Motion, layout: BvhLayout) -> list[str]:
     sk = motion.skeleton
-    layout = layout or BvhLayout.default(sk)
     if len(layout.channels) != sk.num_joints:
         raise ValueError(f"format_bvh: expected a layout for {sk.num_joints} joints, got {len(layout.channels)}")
     inv_scale = 1.0 / layout.scale
@@ -330,31 +400,57 @@ def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
         out.append(f"{pad}}}")
 
     emit(0, 0)
+    frame_time = f"{1.0 / motion.fps:.8f}"
+    if layout.frame_time is not None and abs(float(layout.frame_time) * motion.fps - 1.0) < 1e-4:
+        frame_time = layout.frame_time
+    return out + ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {frame_time}"]
+
+
+def _rows(motion: Motion, layout: BvhLayout, start: int, stop: int) -> list[str]:
+    """The frame lines ``start:stop``, columns in the order the hierarchy lists the joints."""
+    sk = motion.skeleton
+    if not torch.isfinite(motion.lrot[start:stop]).all() or not torch.isfinite(motion.lpos[start:stop]).all():
+        raise ValueError("format_bvh: the motion holds NaN or infinite values; nothing written")
+    inv_scale = 1.0 / layout.scale
+    children = {i: sk.children(i) for i in range(sk.num_joints)}
     cols = []
-    lrot = motion.lrot.double()
-    for i in _depth_first(children):  # the columns follow the hierarchy as written
+    lrot = motion.lrot[start:stop].double()
+    for i in _depth_first(children):
         chans = layout.channels[i]
         rot_axes = "".join(c[0] for c in chans if c.endswith("rotation"))
         order = rot_axes + "".join(a for a in "XYZ" if a not in rot_axes)
         euler = torch.rad2deg(quat.to_euler(lrot[:, i], order)) if rot_axes else None
         for c in chans:
             if c.endswith("position"):
-                cols.append(motion.lpos[:, i, "XYZ".index(c[0])].double() * inv_scale)
+                cols.append(motion.lpos[start:stop, i, "XYZ".index(c[0])].double() * inv_scale)
             else:
                 cols.append(euler[:, order.index(c[0])])
-    frames = torch.stack(cols, dim=1).numpy() if cols else np.zeros((motion.num_frames, 0))
-    frame_time = f"{1.0 / motion.fps:.8f}"
-    if layout.frame_time is not None and abs(float(layout.frame_time) * motion.fps - 1.0) < 1e-4:
-        frame_time = layout.frame_time
-    out += ["MOTION", f"Frames: {motion.num_frames}", f"Frame Time: {frame_time}"]
-    out += [" ".join(f"{v:.6f}" for v in row) for row in frames]
-    return "\n".join(out) + "\n"
+    frames = torch.stack(cols, dim=1).numpy() if cols else np.zeros((stop - start, 0))
+    return [" ".join(f"{v:.6f}" for v in row) for row in frames]
+
+
+def format_bvh(motion: Motion, layout: BvhLayout | None = None) -> str:
+    """BVH text for ``motion`` with the channels and units of ``layout`` (default: ZXY, metres)."""
+    layout = layout or BvhLayout.default(motion.skeleton)
+    return "\n".join(_header(motion, layout) + _rows(motion, layout, 0, motion.num_frames)) + "\n"
 
 
 def write_bvh(path: str | os.PathLike, motion: Motion, layout: BvhLayout | None = None) -> None:
-    """Write atomically (temp file + rename), so a failure never leaves a half-written file."""
-    text = format_bvh(motion, layout)
-    atomic_write_text(Path(path), text)
+    """Write atomically (temp file + rename), so a failure never leaves a half-written file; long takes
+    are written a chunk of frames at a time."""
+    layout = layout or BvhLayout.default(motion.skeleton)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write("\n".join(_header(motion, layout)) + "\n")
+            for a in range(0, motion.num_frames, _CHUNK):
+                f.write("\n".join(_rows(motion, layout, a, min(a + _CHUNK, motion.num_frames))) + "\n")
+        publish(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def atomic_write_text(path: Path, text: str) -> None:

@@ -189,13 +189,12 @@ def angle(q: torch.Tensor) -> torch.Tensor:
 def unroll(q: torch.Tensor, dim: int = 0) -> torch.Tensor:
     """Flip signs along ``dim`` (time) so consecutive quaternions lie in one hemisphere."""
     _check_last(q, 4, "quat.unroll")
-    q = q.clone()
-    n = q.shape[dim]
-    for i in range(1, n):
-        prev, cur = q.select(dim, i - 1), q.select(dim, i)
-        flip = (prev * cur).sum(-1, keepdim=True) < 0
-        cur.copy_(torch.where(flip, -cur, cur))
-    return q
+    if q.shape[dim] < 2:
+        return q.clone()
+    q = q.movedim(dim, 0)
+    flips = torch.where((q[1:] * q[:-1]).sum(-1) < 0, -1.0, 1.0).to(q.dtype)  # relative to the previous one
+    sign = torch.cat([torch.ones_like(flips[:1]), torch.cumprod(flips, 0)])
+    return (q * sign[..., None]).movedim(0, dim)
 
 
 def fit_rotation(src: torch.Tensor, dst: torch.Tensor, weights: torch.Tensor | None = None) -> torch.Tensor:

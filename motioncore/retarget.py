@@ -35,6 +35,9 @@ class RetargetError(ValueError):
     pass
 
 
+CHUNK = 20_000  # frames retargeted at a time: bounds the memory of a long take
+
+
 MAX_JOINT_MAP_BYTES = 64 * 1024
 
 
@@ -188,18 +191,18 @@ def to_canonical(motion: Motion, rig: Rig, spec: CanonicalSpec = CANONICAL) -> M
     """
     if motion.skeleton.names != rig.skeleton.names:
         raise RetargetError("to_canonical: the motion's skeleton is not the rig's skeleton")
-    grot, gpos = fk(motion.lrot, motion.lpos, motion.skeleton.parents)
     b = rig.basis
-    g_canon = []  # canonical global = B * G_src * T_src^-1  (the canonical T-pose is its rest)
-    for c, s in enumerate(rig.mapping):
-        if s is None:
-            g_canon.append(g_canon[spec.skeleton.parents[c]])
-        else:
-            g_canon.append(quat.mul(quat.mul(b, grot[:, s]), quat.inv(rig.tpose[s])))
-    g_canon = quat.unroll(torch.stack(g_canon, dim=1), dim=0)
-    lrot = to_local(g_canon, spec.skeleton.parents)
-    lpos = spec.skeleton.offsets.expand(motion.num_frames, -1, -1).clone()
-    lpos[:, 0] = quat.mul_vec(b, gpos[:, rig.mapping[0]]) * rig.scale
+    n = motion.num_frames
+    g_canon = torch.empty(n, spec.num_joints, 4)
+    lpos = spec.skeleton.offsets.expand(n, -1, -1).clone()
+    for a in range(0, n, CHUNK):  # a long take a chunk of frames at a time: memory stays bounded
+        grot, gpos = fk(motion.lrot[a:a + CHUNK], motion.lpos[a:a + CHUNK], motion.skeleton.parents)
+        g = []  # canonical global = B * G_src * T_src^-1  (the canonical T-pose is its rest)
+        for c, s in enumerate(rig.mapping):
+            g.append(g[spec.skeleton.parents[c]] if s is None else quat.mul(quat.mul(b, grot[:, s]), quat.inv(rig.tpose[s])))
+        g_canon[a:a + CHUNK] = torch.stack(g, dim=1)
+        lpos[a:a + CHUNK, 0] = quat.mul_vec(b, gpos[:, rig.mapping[0]]) * rig.scale
+    lrot = to_local(quat.unroll(g_canon, dim=0), spec.skeleton.parents)
     return Motion(spec.skeleton, lrot, lpos, motion.fps)
 
 
@@ -303,22 +306,26 @@ def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig) -> Mot
     change = quat.slerp(change[i0], change[i1], w[:, None])
     shift = torch.lerp(shift[i0], shift[i1], w[:, None])
     sk = rig.skeleton
-    grot, _ = fk(original.lrot, original.lpos, sk.parents)
     axes = bone_axes(sk).float()
     b, binv = rig.basis, quat.inv(rig.basis)
     of = {s: c for c, s in enumerate(rig.mapping) if s is not None}
-    new = []
-    for s in range(sk.num_joints):
-        c = of.get(s)
-        if c == 0:
-            new.append(quat.mul(quat.mul(binv, quat.mul(change[:, c], b)), grot[:, s]))
-        elif c is not None:
-            axis = quat.mul_vec(grot[:, s], axes[s])  # the bone in the world, as the original has it
-            turned = quat.mul_vec(quat.mul(binv, quat.mul(change[:, c], b)), axis)
-            new.append(quat.mul(quat.between(axis, turned), grot[:, s]))
-        else:
-            new.append(grot[:, s] if s == 0 else quat.mul(new[sk.parents[s]], original.lrot[:, s]))
-    lrot = quat.unroll(to_local(torch.stack(new, dim=1), sk.parents), dim=0)
+    lrot = torch.empty_like(original.lrot)
+    for a in range(0, original.num_frames, CHUNK):  # a long take a chunk of frames at a time
+        z = slice(a, a + CHUNK)
+        grot, _ = fk(original.lrot[z], original.lpos[z], sk.parents)
+        new = []
+        for s in range(sk.num_joints):
+            c = of.get(s)
+            if c == 0:
+                new.append(quat.mul(quat.mul(binv, quat.mul(change[z, c], b)), grot[:, s]))
+            elif c is not None:
+                axis = quat.mul_vec(grot[:, s], axes[s])  # the bone in the world, as the original has it
+                turned = quat.mul_vec(quat.mul(binv, quat.mul(change[z, c], b)), axis)
+                new.append(quat.mul(quat.between(axis, turned), grot[:, s]))
+            else:
+                new.append(grot[:, s] if s == 0 else quat.mul(new[sk.parents[s]], original.lrot[z, s]))
+        lrot[z] = to_local(torch.stack(new, dim=1), sk.parents)
+    lrot = quat.unroll(lrot, dim=0)
     lpos = original.lpos.clone()
     lpos[:, 0] += quat.mul_vec(binv, shift) / rig.scale
     return Motion(sk, lrot, lpos, original.fps)

@@ -49,15 +49,16 @@ def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Te
     """Blend overlapping windows ``(L, D)`` into ``(n, D)`` with linear ramps over the overlaps."""
     out = torch.zeros(n, chunks[0].shape[-1])
     total = torch.zeros(n, 1)
+    prev_end = 0  # windows come in order of their starts
     for chunk, s in zip(chunks, starts):
         length = chunk.shape[0]
         w = torch.ones(length)
         if s > 0:  # ramp in over the overlap with the previous window
-            prev_end = max(e + c.shape[0] for e, c in zip(starts, chunks) if e < s)
             ramp = max(1, prev_end - s)
             w[:ramp] = torch.linspace(0, 1, ramp + 2)[1:-1]
         out[s:s + length] += chunk * w[:, None]
         total[s:s + length] += w[:, None]
+        prev_end = max(prev_end, s + length)
     return out / total.clamp_min(1e-6)
 
 
@@ -117,11 +118,22 @@ def read_motion(motion_encoder, text_encoder, x: torch.Tensor) -> Reading:
                    float(sims.max()), tuple((caption(*pairs[i]), float(sims[i])) for i in order))
 
 
+WINDOW_BATCH = 64  # windows denoised together: bounds memory on long clips (a 2-hour take is ~2,000 windows)
+
+
 def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], torch.Tensor]:
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
     starts = window_starts(x.shape[0], window, overlap)
-    return starts, torch.stack([x[s:s + window] for s in starts])  # (W, L, D): all windows as one batch
+    return starts, x.unfold(0, min(window, x.shape[0]), 1)[starts].transpose(1, 2)  # (W, L, D), views of x
+
+
+def _in_batches(fn, parts: torch.Tensor, *extra: torch.Tensor) -> list[torch.Tensor]:
+    """``fn(batch, *extra_batch)`` over :data:`WINDOW_BATCH` windows at a time; one list of windows."""
+    out = []
+    for i in range(0, parts.shape[0], WINDOW_BATCH):
+        out.extend(fn(parts[i:i + WINDOW_BATCH], *(e[i:i + WINDOW_BATCH] for e in extra)))
+    return out
 
 
 @torch.no_grad()
@@ -131,8 +143,9 @@ def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, conf
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
-    parts = neutralize(prior, scheduler, parts, neutral_text.expand(len(starts), -1), config, gen, config.neutralize_step)
-    return crossfade(list(parts), starts, x.shape[0])
+    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, config, gen, config.neutralize_step),
+                        parts, neutral_text.expand(len(starts), -1))
+    return crossfade(parts, starts, x.shape[0])
 
 
 @torch.no_grad()
@@ -143,7 +156,8 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)
-    chunks = list(stylize(model, scheduler, parts, config, torch.Generator().manual_seed(seed), step=step, prior=prior))
+    gen = torch.Generator().manual_seed(seed)
+    chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), parts)
     return crossfade(chunks, starts, x.shape[0])
 
 

@@ -74,7 +74,8 @@ def cmd_preview(args) -> None:
     from video2style.preview import preview_bvh_files
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
-    out = preview_bvh_files(args.clips, _writable(args.output, "-o"), canonical=args.canonical, joint_map=joint_map)
+    out = preview_bvh_files(args.clips, _writable(args.output, "-o"), canonical=args.canonical, joint_map=joint_map,
+                            notify=lambda s: print(s, file=sys.stderr))
     print(f"wrote {out}")
 
 

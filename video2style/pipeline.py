@@ -336,7 +336,13 @@ def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, 
             grot, gpos = fk(m.lrot, m.lpos, sk.parents)
             return Panel(gpos, sk.parents, label, names=sk.names, markers=twist_markers(grot, sk.offsets, sk.parents))
 
-        panels = [panel(m, label) for m, label in [(clip.canonical, "content"), *extra, *written]]
+        from video2style.preview import MAX_PREVIEW_SECONDS
+
+        shown = [(m, label) for m, label in [(clip.canonical, "content"), *extra, *written]]
+        if clip.canonical.duration > MAX_PREVIEW_SECONDS:
+            shown = [(m.slice(0, int(MAX_PREVIEW_SECONDS * m.fps)), label) for m, label in shown]
+            info["preview_note"] = f"the preview shows the first {MAX_PREVIEW_SECONDS:g} s of {clip.canonical.duration:.0f} s"
+        panels = [panel(m, label) for m, label in shown]
         size = (360, 360) if len(panels) <= 4 else (280, 280)
         info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info

@@ -21,6 +21,7 @@ from motioncore.retarget import (
 from motioncore.skeleton import CANONICAL
 
 MAX_FPS = 30.0
+MAX_PREVIEW_SECONDS = 120.0  # a preview is for looking; a 2-hour take would take longer to render than to apply
 
 
 def _up_basis(motion: Motion, joint_map: dict[str, str] | None, source: str) -> tuple[torch.Tensor, int]:
@@ -62,16 +63,23 @@ def preview_bvh_files(
     joint_map: dict[str, str] | None = None,
     fps: float | None = None,
     size: tuple[int, int] = (480, 480),
+    notify=None,
 ) -> Path:
     """Render each BVH file as one panel of an mp4 at ``out_path``; returns the path.
 
     ``canonical=True`` retargets each clip to the canonical skeleton first. The video runs at
     ``fps``, by default the first clip's rate capped at 30. Raises :class:`BvhError` for a file
-    that does not parse and :class:`RetargetError` for one that cannot be retargeted.
+    that does not parse and :class:`RetargetError` for one that cannot be retargeted. Clips longer than
+    :data:`MAX_PREVIEW_SECONDS` are shown up to there, and ``notify(message)`` says so.
     """
     if not paths:
         raise ValueError("expected at least one BVH path, got 0")
     motions = [read_bvh(p)[0] for p in paths]
+    longest = max(m.duration for m in motions)
+    if longest > MAX_PREVIEW_SECONDS:
+        motions = [m.slice(0, int(MAX_PREVIEW_SECONDS * m.fps)) for m in motions]
+        if notify is not None:
+            notify(f"note: the preview shows the first {MAX_PREVIEW_SECONDS:g} s of {longest:.0f} s")
     out_fps = float(fps) if fps is not None else min(motions[0].fps, MAX_FPS)
     panels = []
     for path, motion in zip(paths, motions):
