@@ -22,8 +22,8 @@ from motioncore.skeleton import CANONICAL
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # the corpus lives with the tests
-from tests.helpers import random_motion  # noqa: E402
-from tests.rig_corpus import CASES, DISPUTED_CASES  # noqa: E402
+from tests.helpers import random_motion
+from tests.rig_corpus import CASES, DISPUTED_CASES
 
 
 def corpus() -> None:
@@ -38,7 +38,7 @@ def corpus() -> None:
         back = to_canonical(parsed, make_rig(parsed.skeleton, parsed))
         err = float((back.global_positions() - m.global_positions()).norm(dim=-1).max()) * 1000
         worst = max(worst, err)
-        print(f"{c.name:18s} {c.up:>3s} {c.rest:>4s} {c.units:>5s} {c.skeleton.num_joints:6d} {str(exact):>11s} {err:13.4f}")
+        print(f"{c.name:18s} {c.up:>3s} {c.rest:>4s} {c.units:>5s} {c.skeleton.num_joints:6d} {exact!s:>11s} {err:13.4f}")
     print(f"{len(CASES + DISPUTED_CASES)} rigs, worst round trip {worst:.4f} mm")
 
 

@@ -25,8 +25,8 @@ from motioncore.retarget import from_canonical, make_rig
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # the synthetic skeletons live with the tests
-from tests.helpers import cmu_like_skeleton  # noqa: E402
-from tests.rig_corpus import case  # noqa: E402
+from tests.helpers import cmu_like_skeleton
+from tests.rig_corpus import case
 
 
 def long_walk(frames: int, fps: float = 30.0) -> Motion:

@@ -248,7 +248,7 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     text = text.removeprefix("\ufeff")
     hierarchy = _parse_hierarchy(_Reader(path, text))
     n_ch = sum(len(c) for c in hierarchy[3])
-    data, frame_time, n_frames, frame_time_text = _motion_block(path, text, n_ch)
+    data, frame_time, _, frame_time_text = _motion_block(path, text, n_ch)
     return _assemble(hierarchy, data, frame_time, frame_time_text, units)
 
 

@@ -248,6 +248,19 @@ def render_frame(panels: Sequence[Panel], t: int, size: tuple[int, int] = (480, 
     return np.concatenate(imgs, axis=1)
 
 
+def check_video(tmp: str | os.PathLike, frames: int, out: str | os.PathLike) -> None:
+    """Raise OSError naming ``out`` unless the video at ``tmp`` holds ``frames`` frames: OpenCV's writer only
+    warns when a frame cannot be written (a full disk), so a short file would pass for a finished one."""
+    import errno
+
+    cap = cv2.VideoCapture(os.fspath(tmp))
+    got = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+    cap.release()
+    if got < frames:
+        raise OSError(errno.EIO, f"the video was not written completely ({got} of {frames} frames; is the disk full?)",
+                      os.fspath(out))
+
+
 def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: float, size: tuple[int, int] = (480, 480), progress: bool = True) -> Path:
     """Write all frames (the longest panel's length) to an MPEG-4 ``.mp4`` atomically; returns the path.
 
@@ -274,6 +287,7 @@ def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: floa
             if progress and (t + 1 == n or t % max(1, n // 10) == 0):
                 print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
         writer.release()
+        check_video(tmp, n, out)
         publish(tmp, out)
     except BaseException:
         writer.release()

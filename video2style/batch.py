@@ -1,8 +1,12 @@
 """``video2style batch``: learn every video's style, apply each to every content clip; resumable."""
 from __future__ import annotations
 
+import fcntl
 import html
+import os
+import re
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,53 +37,122 @@ def find_videos(folder: Path) -> list[Path]:
     return sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in VIDEO_SUFFIXES)
 
 
+def video_keys(videos: list[Path]) -> dict[Path, str]:
+    """A name per video for its style file and result folder: the stem, or ``stem_ext`` where two videos
+    share a stem (``x.mp4`` and ``x.mov``)."""
+    stems = [v.stem for v in videos]
+    return {v: v.stem if stems.count(v.stem) == 1 else f"{v.stem}_{v.suffix[1:].lower()}" for v in videos}
+
+
+_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}(\.tmp|\.mp4|\.avi)$")  # tempfile.mkstemp names our writers use
+
+
+def sweep_temp_files(out_dir: Path) -> int:
+    """Remove temporary files a killed run left behind (``.NAME.xxxxxxxx.mp4`` and the like); returns how many.
+    Call only while holding the folder's lock: another run's files are then not in progress."""
+    removed = 0
+    for p in Path(out_dir).rglob(".*"):
+        if p.is_file() and _TEMP.match(p.name):
+            p.unlink(missing_ok=True)
+            removed += 1
+    return removed
+
+
+@contextmanager
+def folder_lock(out_dir: Path):
+    """Hold ``out_dir/.video2style.lock`` for one batch at a time; a second batch on the folder gets one line."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / ".video2style.lock"
+    with open(path, "a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            who = f.read().strip() or "another process"
+            raise RuntimeError(f"{out_dir}: another batch is writing here ({who}); wait for it or use another -o") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"pid {os.getpid()}")
+        f.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
 def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
               seed: int = 0, progress=print) -> BatchReport:
-    """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip>.bvh`` (+ previews)."""
-    from transfer.style import Style, style_model
-    from video2style.pipeline import apply_file, learn_file, load_models
-
+    """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
+    (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
+    output folder that does not load is learned again. One batch per output folder at a time."""
+    out_dir = Path(out_dir)
     videos = find_videos(videos_dir)
     clips = sorted(Path(content_dir).rglob("*.bvh"))
     if not videos:
         raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips")
-    report = BatchReport()
-    for vi, video in enumerate(videos, 1):
-        style_path = Path(out_dir) / "styles" / f"{video.stem}.v2s"
-        t0 = time.time()
-        if style_path.is_file():
-            progress(f"[video {vi}/{len(videos)}] {video.name}: style exists, skipping learning")
-        else:
-            progress(f"[video {vi}/{len(videos)}] {video.name}: learning")
-            try:
-                learn_file(video, style_path, style_words=video.stem.replace("_", " "), config=learn_config,
-                           progress=lambda s: progress(f"    {s}"))
-            except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
-                report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
-                progress(f"    failed: {e}")
-                continue
-        style = Style.load(style_path)
-        model = style_model(load_models().prior, style)
-        for ci, clip in enumerate(clips, 1):
-            out_bvh = Path(out_dir) / video.stem / f"{clip.stem}.bvh"
-            if out_bvh.is_file():
-                report.add(video=video.name, clip=clip.name, status="skipped (done)", output=str(out_bvh),
-                           preview=str(out_bvh.with_name(f"{clip.stem}_preview.mp4")))
-                continue
-            t1 = time.time()
-            try:
-                info = apply_file(style, model, clip, out_bvh.parent, strength, seed)
-            except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
-                report.add(video=video.name, clip=clip.name, status="failed", error=str(e), seconds=time.time() - t1)
-                progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")
-                continue
-            report.add(video=video.name, clip=clip.name, status="done", seconds=time.time() - t1,
-                       output=info["output"], preview=info.get("preview", ""))
-            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {info['output']}")
-    write_index(report, Path(out_dir))
+    with folder_lock(out_dir):
+        stale = sweep_temp_files(out_dir)
+        if stale:
+            progress(f"removed {stale} temporary file(s) left by an interrupted run")
+        report = BatchReport()
+        keys = video_keys(videos)
+        for vi, video in enumerate(videos, 1):
+            _one_video(video, keys[video], f"[video {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, strength,
+                       learn_config, seed, progress, report)
+        write_index(report, out_dir)
     return report
+
+
+def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress):
+    """The video's style: loaded from the output folder if it is there and valid, else learned."""
+    from transfer.style import Style
+    from video2style.pipeline import learn_file
+
+    if style_path.is_file():
+        try:
+            style = Style.load(style_path)
+            progress(f"{tag} {video.name}: style exists, skipping learning")
+            return style
+        except ValueError as e:
+            progress(f"{tag} {video.name}: {e}; learning it again")
+    else:
+        progress(f"{tag} {video.name}: learning")
+    learn_file(video, style_path, style_words=video.stem.replace("_", " "), config=learn_config,
+               progress=lambda s: progress(f"    {s}"))
+    return Style.load(style_path)
+
+
+def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
+               learn_config, seed: int, progress, report: BatchReport) -> None:
+    from transfer.style import style_model
+    from video2style.pipeline import apply_file, load_models
+
+    t0 = time.time()
+    try:
+        style = _style_for(video, out_dir / "styles" / f"{key}.v2s", tag, learn_config, progress)
+    except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
+        report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
+        progress(f"    failed: {e}")
+        return
+    model = style_model(load_models().prior, style)
+    for ci, clip in enumerate(clips, 1):
+        where = out_dir / key / clip.relative_to(content_dir).parent  # subfolders kept: no two clips collide
+        out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
+        if out_bvh.is_file() and preview.is_file():
+            report.add(video=video.name, clip=clip.name, status="skipped (done)", output=str(out_bvh), preview=str(preview))
+            continue
+        t1 = time.time()
+        try:
+            info = apply_file(style, model, clip, where, strength, seed)
+        except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
+            report.add(video=video.name, clip=clip.name, status="failed", error=str(e), seconds=time.time() - t1)
+            progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")
+            continue
+        report.add(video=video.name, clip=clip.name, status="done", seconds=time.time() - t1,
+                   output=info["output"], preview=info.get("preview", ""))
+        progress(f"    [{ci}/{len(clips)}] {clip.name} -> {info['output']}")
 
 
 def write_index(report: BatchReport, out_dir: Path) -> Path:

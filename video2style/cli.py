@@ -27,6 +27,10 @@ class CliError(Exception):
     """A user-facing error: printed as one line, exit status 1."""
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the process is, so that every writer's cleanup runs (exit status 143)."""
+
+
 def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     """Check an output location before any work: a file path must not be a folder, a folder must not be
     a file, and the nearest existing folder above must be writable. Returns ``path``."""
@@ -156,15 +160,24 @@ def cmd_learn(args) -> None:
           f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
 
 
-def _bvh_inputs(paths: list[Path]) -> list[Path]:
+def _bvh_inputs(paths: list[Path], out_dir: Path) -> list[tuple[Path, Path]]:
+    """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``. Two
+    clips that would write the same output are refused before any work."""
     files = []
     for p in paths:
         if p.is_dir():
-            files += sorted(q for q in p.rglob("*") if q.suffix.lower() == ".bvh")
+            files += [(q, out_dir / q.relative_to(p).parent) for q in sorted(p.rglob("*")) if q.suffix.lower() == ".bvh"]
         else:
-            files.append(p)
+            files.append((p, out_dir))
     if not files:
         raise CliError("apply: no BVH files found in the inputs")
+    seen: dict[Path, Path] = {}
+    for clip, where in files:
+        target = where / f"{clip.stem}.bvh"
+        if target in seen:
+            raise CliError(f"apply: {seen[target]} and {clip} would both write {target}; give their folder "
+                           "instead (subfolders are kept) or apply them separately")
+        seen[target] = clip
     return files
 
 
@@ -178,9 +191,9 @@ def cmd_apply(args) -> None:
     else:
         run_item, files = _diffusion_runner(args, joint_map)
     failed = 0
-    for i, path in enumerate(files, 1):
+    for i, (path, where) in enumerate(files, 1):
         try:
-            info = run_item(path)
+            info = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
             failed += 1
             print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
@@ -193,6 +206,8 @@ def cmd_apply(args) -> None:
         tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
               f"{tempo}{extra}{skate})")
+        if info.get("preview_note"):
+            print(f"    note: {info['preview_note']}", file=sys.stderr)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
@@ -217,11 +232,11 @@ def _diffusion_runner(args, joint_map):
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
-    files = _bvh_inputs(args.inputs)
+    files = _bvh_inputs(args.inputs, args.output)
     if args.tempo not in ("off", "auto"):
         resolve_tempo(style, args.tempo)  # a bad number: one line before any work
-    return (lambda path: apply_file(style, model, path, args.output, args.strength, args.seed, args.neutralize, joint_map,
-                                    not args.no_preview, args.tempo)), files
+    return (lambda path, where: apply_file(style, model, path, where, args.strength, args.seed, args.neutralize,
+                                           joint_map, not args.no_preview, args.tempo)), files
 
 
 def _check_strength(strength: float) -> None:
@@ -238,8 +253,8 @@ def _stgcn_runner(args, joint_map):
     model = load_stylizer(args.weights)
     request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))
-    files = _bvh_inputs(inputs)
-    return (lambda path: apply_stgcn_file(model, path, args.output, request, joint_map, not args.no_preview)), files
+    files = _bvh_inputs(inputs, args.output)
+    return (lambda path, where: apply_stgcn_file(model, path, where, request, joint_map, not args.no_preview)), files
 
 
 def cmd_pose(args) -> None:
@@ -530,8 +545,20 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    import signal
+
+    def terminated(signum, frame):  # SIGTERM cleans up like Ctrl-C: temporary files are removed on the way out
+        raise Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, terminated)
+    except ValueError:  # not the main thread: leave signals alone
+        previous = None
     try:
         args.func(args)
+    except Terminated:
+        print("terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
@@ -542,6 +569,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{e.filename}: " if e.filename else ""
         print(f"video2style {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     return 0
 
 

@@ -26,7 +26,7 @@ from lifting.pipeline import LiftResult, Progress, _Reporter, lift_video
 from lifting.video import iter_frames
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.files import publish
-from motioncore.render import Panel, render_frame
+from motioncore.render import Panel, check_video, render_frame
 from motioncore.skeleton import CANONICAL
 
 PREVIEW_HEIGHT = 480
@@ -213,6 +213,7 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     try:
         writer = _Writer(tmp, float(tr.fps), size)
         first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)
+        written = 0
         for i, frame in _prefetch(video, n, first=first):
             left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
             inside = lifted.start <= i < lifted.stop
@@ -223,8 +224,10 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
             cv2.putText(left, label, (8, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (20, 20, 20), 1, cv2.LINE_AA)
             right = render_frame([panel], i, (height, height), tr.fps)
             writer.write(np.concatenate([left, right], axis=1))
+            written += 1
             bar.update()
         writer.close()
+        check_video(tmp, written, out)
     except BaseException:
         if writer is not None:
             writer.close(abort=True)

@@ -1,0 +1,246 @@
+"""Faults a studio pipeline meets: killed runs, full disks, name collisions, two runs on one folder,
+untrusted style files (issue 14). Generated inputs only."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import torch
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from motioncore.bvh import BvhLayout, write_bvh
+from motioncore.skeleton import CANONICAL
+from tests.helpers import random_motion
+from video2style import batch
+from video2style.cli import main
+
+
+def _clip(path: Path, seconds: float = 1.0) -> Path:
+    write_bvh(path, random_motion(seconds=seconds), BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    return path
+
+
+class _FakeStyle:
+    def __init__(self):
+        self.meta = {}
+
+
+@pytest.fixture
+def fake_pipeline(monkeypatch):
+    """learn/apply replaced by fakes that write the files the real ones write; calls are recorded."""
+    calls = {"learn": [], "apply": [], "crash_after_bvh": set()}
+
+    def learn_file(video, out, **kw):
+        calls["learn"].append(Path(video).name)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text("style")
+
+    def load(path):
+        if Path(path).read_text() != "style":
+            raise ValueError(f"{path}: not a style file")
+        return _FakeStyle()
+
+    def apply_file(style, model, clip, out_dir, strength, seed):
+        calls["apply"].append(str(clip))
+        out_dir.mkdir(parents=True, exist_ok=True)
+        bvh = out_dir / f"{clip.stem}.bvh"
+        bvh.write_text("bvh")
+        if clip.name in calls["crash_after_bvh"]:
+            raise KeyboardInterrupt  # killed between the BVH and its preview
+        preview = out_dir / f"{clip.stem}_preview.mp4"
+        preview.write_text("mp4")
+        return {"output": str(bvh), "preview": str(preview)}
+
+    monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
+    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
+    monkeypatch.setattr("video2style.pipeline.load_models", lambda: type("M", (), {"prior": None})())
+    monkeypatch.setattr("transfer.style.Style.load", staticmethod(load))
+    monkeypatch.setattr("transfer.style.style_model", lambda prior, style: None)
+    return calls
+
+
+def _library(tmp_path: Path) -> tuple[Path, Path]:
+    videos, content = tmp_path / "videos", tmp_path / "content"
+    videos.mkdir()
+    for name in ("old.mp4", "old.mov", "strut.mp4"):
+        (videos / name).write_bytes(b"not read by the fake learner")
+    for rel in ("a/walk.bvh", "b/walk.bvh", "run.bvh"):
+        (content / rel).parent.mkdir(parents=True, exist_ok=True)
+        (content / rel).write_text("clip")
+    return videos, content
+
+
+def test_batch_outputs_never_collide_and_an_item_is_done_only_with_all_its_outputs(tmp_path, fake_pipeline):
+    videos, content = _library(tmp_path)
+    out = tmp_path / "out"
+    fake_pipeline["crash_after_bvh"].add("run.bvh")
+    with pytest.raises(KeyboardInterrupt):
+        batch.run_batch(videos, content, out, progress=lambda s: None)
+    # clips named alike in two folders keep their folders
+    assert (out / "old_mov" / "a" / "walk.bvh").is_file() and (out / "old_mov" / "b" / "walk.bvh").is_file()
+    assert (out / "old_mov" / "run.bvh").is_file() and not (out / "old_mov" / "run_preview.mp4").exists()
+    fake_pipeline["crash_after_bvh"].clear()
+    fake_pipeline["apply"].clear()
+    report = batch.run_batch(videos, content, out, progress=lambda s: None)
+    redone = [Path(c).name for c in fake_pipeline["apply"]]
+    assert redone.count("run.bvh") == 3  # the half-done item again, and the videos never reached
+    assert (out / "old_mov" / "run_preview.mp4").is_file() and (out / "index.html").is_file()
+    assert (out / "styles" / "old_mp4.v2s").is_file() and (out / "styles" / "old_mov.v2s").is_file()  # x.mp4, x.mov
+    assert sum(r["status"] == "skipped (done)" for r in report.rows) == 2  # old_mov's two walks
+    assert not report.failures
+
+
+def test_a_corrupt_style_in_the_output_folder_is_learned_again(tmp_path, fake_pipeline):
+    videos, content = _library(tmp_path)
+    out = tmp_path / "out"
+    (out / "styles").mkdir(parents=True)
+    (out / "styles" / "strut.v2s").write_bytes(b"\x00garbage")
+    report = batch.run_batch(videos, content, out, progress=lambda s: None)
+    assert "strut.mp4" in fake_pipeline["learn"] and not report.failures
+    assert (out / "index.html").is_file()
+
+
+def test_a_video_that_fails_is_one_failed_item_and_the_index_is_written(tmp_path, fake_pipeline, monkeypatch):
+    videos, content = _library(tmp_path)
+
+    def broken(video, out, **kw):
+        raise ValueError(f"{video}: no person found")
+
+    monkeypatch.setattr("video2style.pipeline.learn_file", broken)
+    out = tmp_path / "out"
+    report = batch.run_batch(videos, content, out, progress=lambda s: None)
+    assert len(report.failures) == 3 and "no person found" in (out / "index.html").read_text()
+
+
+def test_stale_temporary_files_are_swept_and_a_second_batch_is_refused(tmp_path, fake_pipeline):
+    videos, content = _library(tmp_path)
+    out = tmp_path / "out"
+    (out / "old_mp4").mkdir(parents=True)
+    stale = out / "old_mp4" / ".walk_preview.ab12cd34.mp4"
+    stale.write_bytes(b"x" * 100)
+    mine = out / "old_mp4" / ".keep"  # a user's hidden file is not ours
+    mine.write_text("x")
+    with batch.folder_lock(out):
+        with pytest.raises(RuntimeError, match="another batch is writing here"):
+            batch.run_batch(videos, content, out, progress=lambda s: None)
+        assert stale.exists()
+    batch.run_batch(videos, content, out, progress=lambda s: None)
+    assert not stale.exists() and mine.exists()
+
+
+def test_apply_refuses_two_clips_that_would_write_one_output(tmp_path):
+    from video2style.cli import CliError, _bvh_inputs
+
+    a, b = _clip(tmp_path / "a" / "walk.bvh"), _clip(tmp_path / "b" / "walk.bvh")
+    with pytest.raises(CliError, match="would both write"):
+        _bvh_inputs([a, b], tmp_path / "out")
+    pairs = _bvh_inputs([tmp_path], tmp_path / "out")  # a folder keeps its subfolders
+    assert sorted(str(w.relative_to(tmp_path / "out")) for _, w in pairs) == ["a", "b"]
+
+
+def test_two_style_writers_do_not_share_a_temporary_file(tmp_path):
+    from transfer.style import Style
+
+    path = tmp_path / "s.v2s"
+    styles = [Style({"w": torch.full((4, 4), float(i))}, {"style": f"s{i}"}, None) for i in range(2)]
+    errors = []
+
+    def save(s):
+        try:
+            for _ in range(20):
+                s.save(path)
+        except Exception as e:  # noqa: BLE001 - collected for the assertion
+            errors.append(e)
+
+    threads = [threading.Thread(target=save, args=(s,)) for s in styles]
+    [t.start() for t in threads]
+    [t.join() for t in threads]
+    assert not errors and [p.name for p in tmp_path.iterdir()] == ["s.v2s"]
+
+
+def test_a_video_writer_that_drops_frames_is_an_error_not_a_short_file(tmp_path, capsys, monkeypatch):
+    import cv2
+
+    real = cv2.VideoWriter
+
+    class FullDisk:  # OpenCV on a full disk: write() fails silently after a while
+        def __init__(self, *a):
+            self.inner, self.n = real(*a), 0
+
+        def isOpened(self):
+            return self.inner.isOpened()
+
+        def write(self, frame):
+            self.n += 1
+            if self.n <= 3:
+                self.inner.write(frame)
+
+        def release(self):
+            self.inner.release()
+
+    monkeypatch.setattr("motioncore.render.cv2.VideoWriter", FullDisk)
+    clip, out = _clip(tmp_path / "c.bvh"), tmp_path / "o" / "c.mp4"
+    assert main(["preview", str(clip), "-o", str(out)]) == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert len(err) == 1 and str(out) in err[0] and "not written completely" in err[0]
+    assert not out.exists() and not list(out.parent.iterdir())
+
+
+def test_nan_never_reaches_a_file(tmp_path):
+    m = random_motion(seconds=1.0)
+    m.lrot[5, 3] = float("nan")
+    with pytest.raises(ValueError, match="NaN"):
+        write_bvh(tmp_path / "x.bvh", m)
+    assert not list(tmp_path.iterdir())
+
+
+def test_sigterm_cleans_up_like_ctrl_c(tmp_path):
+    clip = _clip(tmp_path / "long.bvh", seconds=100.0)
+    out = tmp_path / "o" / "long.mp4"
+    proc = subprocess.Popen([sys.executable, "-m", "video2style", "preview", str(clip), "-o", str(out)],
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    deadline = time.time() + 60
+    while time.time() < deadline and not (out.parent.is_dir() and list(out.parent.iterdir())):
+        time.sleep(0.1)  # wait until the temporary video exists
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "terminated" in err
+    assert not out.exists() and not list(out.parent.iterdir())
+
+
+# Untrusted style files: random metadata never gets past Style.load as anything but a one-line ValueError.
+_JSON = st.recursive(st.none() | st.booleans() | st.integers(-10**9, 10**9) | st.floats(allow_nan=True) | st.text(max_size=20),
+                     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=12), kids, max_size=4),
+                     max_leaves=12)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(meta=st.dictionaries(st.sampled_from(["style", "content", "config", "iterations", "tempo", "rank",
+                                              "base_model_sha256", "span", "loss_rec"]), _JSON, max_size=5),
+       shape=st.lists(st.integers(1, 5), min_size=1, max_size=3),
+       dtype=st.sampled_from([torch.float16, torch.float32, torch.int32]),
+       bad=st.sampled_from(["none", "nan", "inf"]))
+def test_fuzzed_style_files_are_refused_in_one_line_or_loaded(tmp_path_factory, meta, shape, dtype, bad):
+    from safetensors.torch import save_file
+
+    from transfer.style import Style
+
+    path = tmp_path_factory.mktemp("fuzz") / "f.v2s"
+    t = torch.ones(shape, dtype=dtype)
+    if bad != "none" and dtype.is_floating_point:
+        t.view(-1)[0] = float(bad)
+    save_file({"blocks.0.ff2.lora_a": t}, str(path), metadata={"video2style": json.dumps(meta)})
+    try:
+        style = Style.load(path)
+    except ValueError as e:
+        msg = str(e)
+        assert msg.startswith(str(path)) and "\n" not in msg
+    else:  # whatever loads is sane
+        assert all(torch.isfinite(v.float()).all() for v in style.adapters.values())
+    assert os.path.exists(path)
