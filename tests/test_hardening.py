@@ -244,3 +244,17 @@ def test_fuzzed_style_files_are_refused_in_one_line_or_loaded(tmp_path_factory, 
     else:  # whatever loads is sane
         assert all(torch.isfinite(v.float()).all() for v in style.adapters.values())
     assert os.path.exists(path)
+
+
+def test_a_frame_time_that_stretches_a_small_file_over_days_is_refused_before_resampling(tmp_path):
+    from video2style.pipeline import read_clip
+
+    clip = _clip(tmp_path / "slow.bvh", seconds=2.0)
+    text = clip.read_text().replace("Frame Time: 0.05000000", "Frame Time: 1.0")
+    many = text.split("MOTION")[1].splitlines()[3:]
+    body = text.split("MOTION")[0] + f"MOTION\nFrames: {len(many) * 600}\nFrame Time: 1.0\n" + "\n".join(many * 600) + "\n"
+    clip.write_text(body)  # 24,000 frames of 1 s: 6.7 hours
+    t0 = time.time()
+    with pytest.raises(ValueError, match="hours long"):
+        read_clip(clip)
+    assert time.time() - t0 < 30

@@ -18,6 +18,7 @@ from video2style.paths import PACKAGE_ROOT
 
 WEIGHTS = PACKAGE_ROOT / "transfer" / "weights"
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
+MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
 
 
 def weights_path(name: str) -> Path:
@@ -99,6 +100,9 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
         canon = video_to_motion(path, progress=progress, span=span)
         return Clip(path, resample(canon, CANONICAL.fps))
     motion, layout = read_bvh(path)
+    if motion.duration > MAX_CLIP_SECONDS:
+        raise ValueError(f"{path}: {motion.duration / 3600:.1f} hours long ({motion.num_frames} frames at {motion.fps:g} fps); "
+                         f"clips up to {MAX_CLIP_SECONDS / 3600:g} hours are taken: split it")
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     if span != (None, None):
         motion = trim(motion, span, str(path))
