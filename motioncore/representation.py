@@ -92,40 +92,58 @@ def _rest_foot_heights(spec: CanonicalSpec) -> torch.Tensor:
     return rest[list(spec.feet), 1]
 
 
+CHUNK = 20_000  # frames encoded or decoded at a time: bounds the float64 temporaries of a long clip
+
+
 def encode(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
     """Canonical motion -> features ``(T, D)`` float32. Bone lengths come from the canonical skeleton."""
     if motion.skeleton.names != spec.skeleton.names:
         raise ValueError("encode: expected a motion on the canonical skeleton (retarget it first)")
-    if motion.num_frames < 2:
-        raise ValueError(f"encode: expected at least 2 frames, got {motion.num_frames}")
-    lrot = motion.lrot.double()
-    lpos = spec.skeleton.offsets.double().expand(motion.num_frames, -1, -1).clone()
-    lpos[:, 0] = motion.lpos[:, 0].double()
-    grot, gpos = fk(lrot, lpos, spec.skeleton.parents)
-    theta = facing_angle(gpos, spec)  # (T,)
-    yaw_inv = quat.from_yaw(-theta)  # (T, 4)
-    root = gpos[:, 0]
+    n = motion.num_frames
+    if n < 2:
+        raise ValueError(f"encode: expected at least 2 frames, got {n}")
+    fs = FeatureSpec(spec.num_joints)
+    out = torch.empty(n, fs.dim)
+    feet_y = torch.empty(n, len(spec.feet), dtype=torch.float64)
+    speed = torch.empty(n, len(spec.feet), dtype=torch.float64)
+    for a in range(0, n, CHUNK):  # each chunk with a frame either side, for the frame-to-frame differences
+        b = min(a + CHUNK, n)
+        s, e = max(a - 1, 0), min(b + 1, n)
+        lrot = motion.lrot[s:e].double()
+        lpos = spec.skeleton.offsets.double().expand(e - s, -1, -1).clone()
+        lpos[:, 0] = motion.lpos[s:e, 0].double()
+        grot, gpos = fk(lrot, lpos, spec.skeleton.parents)
+        theta = facing_angle(gpos, spec)  # (t,)
+        yaw_inv = quat.from_yaw(-theta)  # (t, 4)
+        root = gpos[:, 0]
+        dtheta = _forward_difference(theta, lambda d: torch.remainder(d + torch.pi, 2 * torch.pi) - torch.pi)
+        lvel = quat.mul_vec(yaw_inv, _forward_difference(root))[:, [0, 2]]
+        rel = gpos[:, 1:] - root[:, None] * root.new_tensor([1.0, 0.0, 1.0])
+        rel = quat.mul_vec(yaw_inv[:, None], rel)
+        lrot[:, 0] = quat.mul(yaw_inv, grot[:, 0])
+        rot6 = quat.to_6d(lrot)
+        feet = gpos[:, list(spec.feet)]
+        keep = slice(a - s, b - s)
+        feet_y[a:b] = feet[keep, :, 1]
+        speed[a:b] = (_forward_difference(feet) * motion.fps).norm(dim=-1)[keep]
+        out[a:b, : fs.contacts.start] = torch.cat(
+            [dtheta[:, None], lvel, root[:, 1:2], rel.flatten(1), rot6.flatten(1)], dim=1)[keep].float()
+    out[:, fs.contacts] = _contacts(feet_y, speed, spec).float()
+    return out
 
-    dtheta = torch.zeros_like(theta)
-    dtheta[:-1] = torch.remainder(theta[1:] - theta[:-1] + torch.pi, 2 * torch.pi) - torch.pi
-    dtheta[-1] = dtheta[-2]
-    droot = torch.zeros_like(root)
-    droot[:-1] = root[1:] - root[:-1]
-    droot[-1] = droot[-2]
-    lvel = quat.mul_vec(yaw_inv, droot)[:, [0, 2]]
 
-    rel = gpos[:, 1:] - root[:, None] * root.new_tensor([1.0, 0.0, 1.0])
-    rel = quat.mul_vec(yaw_inv[:, None], rel)
+def _forward_difference(x: torch.Tensor, wrap=None) -> torch.Tensor:
+    """``x[t + 1] - x[t]`` along dim 0, the last frame repeating the one before it."""
+    d = x[1:] - x[:-1]
+    d = wrap(d) if wrap is not None else d
+    return torch.cat([d, d[-1:]])
 
-    lrot_local = lrot.clone()
-    lrot_local[:, 0] = quat.mul(yaw_inv, grot[:, 0])
-    rot6 = quat.to_6d(lrot_local)
 
-    contacts = foot_contacts(gpos, motion.fps, spec).double()
-    feats = torch.cat(
-        [dtheta[:, None], lvel, root[:, 1:2], rel.flatten(1), rot6.flatten(1), contacts], dim=1
-    )
-    return feats.float()
+def _contacts(feet_y: torch.Tensor, speed: torch.Tensor, spec: CanonicalSpec) -> torch.Tensor:
+    floor = feet_y.amin(0, keepdim=True)
+    rest_height = _rest_foot_heights(spec)
+    height = feet_y - floor - (rest_height - rest_height.min())
+    return ((height < CONTACT_HEIGHT) & (speed < CONTACT_SPEED)).double()
 
 
 def decode(
@@ -139,26 +157,28 @@ def decode(
     fs = FeatureSpec(spec.num_joints)
     if feats.ndim != 2 or feats.shape[1] != fs.dim:
         raise ValueError(f"decode: expected features (T, {fs.dim}), got {tuple(feats.shape)}")
-    f = feats.double()
-    t = f.shape[0]
+    t = feats.shape[0]
     theta = torch.zeros(t, dtype=torch.float64)
-    theta[1:] = torch.cumsum(f[:-1, fs.root_rvel][:, 0], 0)
+    theta[1:] = torch.cumsum(feats[:-1, fs.root_rvel][:, 0].double(), 0)
     theta = theta + start_yaw
     yaw = quat.from_yaw(theta)
     lvel = torch.zeros(t, 3, dtype=torch.float64)
-    lvel[:, [0, 2]] = f[:, fs.root_lvel]
+    lvel[:, [0, 2]] = feats[:, fs.root_lvel].double()
     step = quat.mul_vec(yaw, lvel)
     root = torch.zeros(t, 3, dtype=torch.float64)
     root[1:] = torch.cumsum(step[:-1], 0)
     root[:, 0] += start_xz[0]
     root[:, 2] += start_xz[1]
-    root[:, 1] = f[:, fs.root_height][:, 0]
+    root[:, 1] = feats[:, fs.root_height][:, 0].double()
 
-    lrot = quat.from_6d(f[:, fs.rotations].reshape(t, spec.num_joints, 6))
-    lrot[:, 0] = quat.mul(yaw, lrot[:, 0])
-    lpos = spec.skeleton.offsets.double().expand(t, -1, -1).clone()
-    lpos[:, 0] = root
-    return Motion(spec.skeleton, lrot.float(), lpos.float(), fps)
+    lrot = torch.empty(t, spec.num_joints, 4)
+    for a in range(0, t, CHUNK):
+        part = quat.from_6d(feats[a:a + CHUNK, fs.rotations].double().reshape(-1, spec.num_joints, 6))
+        part[:, 0] = quat.mul(yaw[a:a + CHUNK], part[:, 0])
+        lrot[a:a + CHUNK] = part.float()
+    lpos = spec.skeleton.offsets.expand(t, -1, -1).clone()
+    lpos[:, 0] = root.float()
+    return Motion(spec.skeleton, lrot, lpos, fps)
 
 
 def decode_positions(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL, start_yaw: float = 0.0) -> torch.Tensor:

@@ -149,8 +149,10 @@ def make_rig(
     canon = spec.skeleton
     if skeleton.names == canon.names:
         basis = quat.identity()
-    elif sample is not None:
-        basis = detect_up_basis(sample.global_positions(), mapping[0], mapping[canon.index("Head")])
+    elif sample is not None:  # up from at most 1000 frames spread over the clip (a long take stays cheap)
+        idx = torch.linspace(0, sample.num_frames - 1, min(sample.num_frames, 1000)).long()
+        _, gpos = fk(sample.lrot[idx], sample.lpos[idx], skeleton.parents)
+        basis = detect_up_basis(gpos, mapping[0], mapping[canon.index("Head")])
     elif humanoid is not None:
         basis = quat.between(axis_vector(humanoid.up).float(), torch.tensor([0.0, 1.0, 0.0]))
     else:

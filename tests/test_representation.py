@@ -72,3 +72,14 @@ def test_resample_keeps_duration_and_endpoints():
     r = resample(m, 20.0)
     assert r.num_frames == 60 and r.fps == 20.0
     assert torch.allclose(r.lpos[0], m.lpos[0]) and torch.allclose(r.lrot[0], m.lrot[0], atol=1e-6)
+
+
+def test_encode_and_decode_a_chunk_at_a_time_give_the_same_numbers(monkeypatch):
+    import motioncore.representation as rep
+    from tests.helpers import random_motion
+
+    m = random_motion(seconds=6.0, seed=3)
+    f, d = rep.encode(m), rep.decode(rep.encode(m))
+    for chunk in (7, 2, 1):
+        monkeypatch.setattr(rep, "CHUNK", chunk)
+        assert torch.equal(rep.encode(m), f) and torch.equal(rep.decode(f).lrot, d.lrot)
