@@ -252,7 +252,7 @@ def parse_bvh(text: str, path: str = "<string>", units: str | float = "auto") ->
     return _assemble(hierarchy, data, frame_time, frame_time_text, units)
 
 
-_CHUNK = 20_000  # frames converted at a time: bounds the float64 temporaries of a long take
+_CHUNK = 5_000  # frames converted or written at a time: bounds the temporaries of a long take
 
 
 def _assemble(hierarchy, data: np.ndarray, frame_time: float, frame_time_text: str,

@@ -52,14 +52,20 @@ def resample(motion: Motion, fps: float) -> Motion:
     if abs(fps - motion.fps) < 1e-9:
         return motion
     n_out = max(1, round((motion.num_frames - 1) * fps / motion.fps) + 1)
-    t = torch.arange(n_out, dtype=torch.float64) * (motion.fps / fps)
-    t = t.clamp(max=motion.num_frames - 1)
-    i0 = t.floor().long().clamp(max=motion.num_frames - 1)
-    i1 = (i0 + 1).clamp(max=motion.num_frames - 1)
-    w = (t - i0).float()
-    lrot = quat.slerp(motion.lrot[i0], motion.lrot[i1], w[:, None])
-    lpos = motion.lpos[i0] + (motion.lpos[i1] - motion.lpos[i0]) * w[:, None, None]
+    lrot = torch.empty(n_out, *motion.lrot.shape[1:])
+    lpos = torch.empty(n_out, *motion.lpos.shape[1:])
+    for a in range(0, n_out, _CHUNK):  # a chunk of frames at a time: a long take's temporaries stay small
+        t = torch.arange(a, min(a + _CHUNK, n_out), dtype=torch.float64) * (motion.fps / fps)
+        t = t.clamp(max=motion.num_frames - 1)
+        i0 = t.floor().long().clamp(max=motion.num_frames - 1)
+        i1 = (i0 + 1).clamp(max=motion.num_frames - 1)
+        w = (t - i0).float()
+        lrot[a:a + _CHUNK] = quat.slerp(motion.lrot[i0], motion.lrot[i1], w[:, None])
+        lpos[a:a + _CHUNK] = motion.lpos[i0] + (motion.lpos[i1] - motion.lpos[i0]) * w[:, None, None]
     return Motion(motion.skeleton, lrot, lpos, fps)
+
+
+_CHUNK = 5_000
 
 
 def mirror(motion: Motion, spec: CanonicalSpec = CANONICAL) -> Motion:

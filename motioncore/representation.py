@@ -92,7 +92,7 @@ def _rest_foot_heights(spec: CanonicalSpec) -> torch.Tensor:
     return rest[list(spec.feet), 1]
 
 
-CHUNK = 20_000  # frames encoded or decoded at a time: bounds the float64 temporaries of a long clip
+CHUNK = 5_000  # frames encoded or decoded at a time: bounds the float64 temporaries of a long clip
 
 
 def encode(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:

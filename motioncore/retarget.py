@@ -35,7 +35,7 @@ class RetargetError(ValueError):
     pass
 
 
-CHUNK = 20_000  # frames retargeted at a time: bounds the memory of a long take
+CHUNK = 5_000  # frames retargeted at a time: bounds the memory of a long take
 
 
 MAX_JOINT_MAP_BYTES = 64 * 1024

@@ -112,15 +112,22 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     return Clip(path, canon, rig, layout, motion)
 
 
-def write_result(clip: Clip, result: Motion, out_path: Path) -> Motion:
+def write_result(clip: Clip, result: Motion, out_path: Path) -> Motion | None:
     """Write ``result`` (canonical, frame for frame with ``clip.canonical``) as BVH. A BVH clip keeps its own
     skeleton, joints, channels, frame time and frame count (:func:`motioncore.retarget.carry_edit`), so each
-    bone keeps the content's twist. Returns ``result`` with the rotations as written (for previews)."""
+    bone keeps the content's twist. Returns the motion written on the clip's skeleton (None for a video)."""
     if clip.rig is None:
         write_bvh(out_path, result, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
-        return result
+        return None
     written = carry_edit(clip.source, clip.canonical, result, clip.rig)
     write_bvh(out_path, written, clip.layout)
+    return written
+
+
+def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
+    """``result`` with the rotations :func:`write_result` wrote (the content's twist), for previews."""
+    if written is None:
+        return result
     lrot = resample(to_canonical(written, clip.rig), CANONICAL.fps).lrot
     idx = torch.arange(result.num_frames).clamp(max=lrot.shape[0] - 1)
     return Motion(result.skeleton, lrot[idx], result.lpos, result.fps)
@@ -327,7 +334,10 @@ def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, 
     outputs, written = [], []
     for motion, tag in results:
         name = f"{stem}.bvh" if len(results) == 1 else f"{stem}_{tag}.bvh"
-        written.append((write_result(clip, motion, Path(out_dir) / name), tag))
+        on_file = write_result(clip, motion, Path(out_dir) / name)
+        if preview:
+            written.append((as_written(clip, motion, on_file), tag))
+        del on_file  # a long take's copy is not kept past its writing
         outputs.append(str(Path(out_dir) / name))
     info = {"output": outputs[0] if len(outputs) == 1 else outputs}
     if preview:
