@@ -190,3 +190,17 @@ def test_smooth_time_keeps_constants_and_damps_fast_oscillation():
     y = smooth_time(x, 3.0)[0, 10:-10]
     assert (y[:, 0] - slow[10:-10]).abs().max() < 0.05  # posture-like change kept
     assert y[:, 1].abs().max() < 0.1 * fast.abs().max()  # wave-like oscillation removed
+
+
+def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_model():
+    import torch
+
+    from transfer.text_encoder import LazyTextEncoder, TextEncoder, standard_captions
+
+    lazy = LazyTextEncoder()
+    texts = standard_captions()
+    table = lazy.encode(texts)
+    assert not lazy.loaded  # apply's captions never load sentence-transformers
+    assert torch.allclose(table, TextEncoder().encode(texts), atol=1e-5)  # regenerate: transfer.text_encoder.write_caption_table
+    lazy.encode(["a person juggles, pirate style"])
+    assert lazy.loaded

@@ -348,8 +348,8 @@ def _positive_int(v: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from transfer.style import MIN_ITERATIONS, StyleConfig
-    from video2style.evaluate import METHODS
+    from transfer.style_config import MIN_ITERATIONS, StyleConfig
+    from video2style.methods import METHODS
     from video2style.paths import cache_dir, default_dataset_dir
 
     p = argparse.ArgumentParser(prog="video2style", description=__doc__, epilog=EXAMPLES,

@@ -1,0 +1,33 @@
+"""The hyperparameters of learning and applying a style: a plain dataclass (no torch), saved in each style
+file and read by ``--help`` without importing the models."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+MIN_ITERATIONS = 25  # fewer: a cruder style that changes the action more often (val split, docs/RESULTS.md)
+
+
+@dataclass
+class StyleConfig:
+    pair_step: int = 950  # G
+    pair_steps: int = 30  # DDIM steps from G to 0 for the neutral pair
+    guidance: float = 2.5
+    transfer_step: int = 300  # K
+    transfer_steps: int = 6  # DDIM steps from K to 0 (K = 300 with 20 steps over 1000)
+    rank: int = 8
+    lr: float = 2e-3
+    iterations: int = 40  # the budget (chosen on the val split, docs/RESULTS.md): same example + seed = same style
+    max_seconds: float | None = None  # optional wall-clock cap on the whole learning; None = no cap
+    lambda_s: float = 0.1
+    content_batch: int = 8
+    window: int = 80
+    seed: int = 0
+    pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
+    lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
+    apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
+    # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
+    style_scale: float = 1.0  # difference mode: the scale of the style's difference; regenerate: guidance weight
+    neutralize_step: int = 950  # apply: a styled content clip is noised this far and redrawn neutral first
+    guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
+    # of multiplying its final difference
+    delta_smoothing: float = 0.0  # difference mode: Gaussian sigma (frames) of a temporal low-pass on the difference

@@ -1,0 +1,29 @@
+"""The methods `evaluate` compares, by name: Park et al.'s stylizer, the identity baseline, and ours with
+:class:`transfer.style_config.StyleConfig` overrides (experimental variants cited by docs/RESULTS.md).
+Plain data, so the command line can list them without importing torch."""
+
+VARIANTS = {
+    "ours": {},
+    "ours-no-ls": {"lambda_s": 0.0},
+    "ours-no-pp": {"lambda_p": 0.0},
+    "ours-no-pair": {"pair_generation": False},
+    "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
+    "ours-k600": {"transfer_step": 600, "transfer_steps": 12},
+    "ours-regen": {"apply_mode": "regenerate"},
+    "ours-diff": {"apply_mode": "difference"},
+    "ours-diff-k600": {"apply_mode": "difference", "transfer_step": 600, "transfer_steps": 12},
+    "ours-diff-no-pp": {"apply_mode": "difference", "lambda_p": 0.0},
+    "ours-diff-no-pp-k600": {"apply_mode": "difference", "lambda_p": 0.0, "transfer_step": 600, "transfer_steps": 12},
+    "ours-guided": {"apply_mode": "regenerate", "style_scale": 2.0},
+    "ours-diff-n600": {"apply_mode": "difference", "neutralize_step": 600},
+    "ours-diff-n0": {"apply_mode": "difference", "neutralize_step": 0},
+    "ours-diffg": {"apply_mode": "difference", "guided_difference": True},
+    "ours-diffg-n600": {"apply_mode": "difference", "guided_difference": True, "neutralize_step": 600},
+    "ours-diff-pp01": {"apply_mode": "difference", "lambda_p": 0.1},
+    "ours-diff-pp005": {"apply_mode": "difference", "lambda_p": 0.05},
+    "ours-diff-ls05": {"apply_mode": "difference", "lambda_s": 0.5},
+    "ours-diff-ls1": {"apply_mode": "difference", "lambda_s": 1.0},
+    "ours-diff-s3": {"apply_mode": "difference", "delta_smoothing": 3.0},
+    "ours-diff-s6": {"apply_mode": "difference", "delta_smoothing": 6.0},
+}
+METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
