@@ -1,4 +1,4 @@
-"""``video2style demo``: the whole job on the project-made inputs in ``samples/``.
+"""``video2style demo``: the whole job on the project-made inputs in ``video2style/samples/``.
 
 1. ``pose``: each sample video -> BVH + a preview of the landmarks beside the fitted skeleton;
 2. ``batch``: learn each video's style (the file name gives the style words) and apply it to every
@@ -8,15 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from video2style.paths import PACKAGE_ROOT
-
-SAMPLES = PACKAGE_ROOT / "samples"
+SAMPLES = Path(__file__).resolve().parent / "samples"  # package data: there after a plain `pip install .` too
 
 
 def sample_clips() -> list[Path]:
     clips = sorted(SAMPLES.glob("*.bvh"))
     if not clips:
-        raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python samples/make_samples.py)")
+        raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python video2style/samples/make_samples.py)")
     return clips
 
 
@@ -29,7 +27,7 @@ def run_demo(out_dir: Path, say=print, samples: Path = SAMPLES):
     out_dir.mkdir(parents=True, exist_ok=True)
     clips, videos = sorted(Path(samples).glob("*.bvh")), find_videos(samples)
     if not clips or not videos:
-        raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python samples/make_samples.py)")
+        raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python video2style/samples/make_samples.py)")
     say(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
         f"{len(clips)} clip(s) ({', '.join(c.name for c in clips)})")
     for video in videos:

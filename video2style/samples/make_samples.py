@@ -1,7 +1,7 @@
 """Regenerate the project-made demo inputs in this folder (no external data; needs the shipped prior).
 
-    python samples/make_samples.py            # content clips + the style video
-    python samples/make_samples.py --seed 3   # other draws
+    python video2style/samples/make_samples.py            # content clips + the style video
+    python video2style/samples/make_samples.py --seed 3   # other draws
 
 Content clips are text-to-motion samples of the project's diffusion prior (neutral style),
 written as BVH on the canonical skeleton in centimetres at 30 fps. The style video is a prior

@@ -1,0 +1,33 @@
+"""A plain (not editable) install has everything the commands read: weights, the caption table, the samples."""
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
+    pytest.importorskip("setuptools", reason="building the wheel offline needs setuptools in this environment")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation", "-q",
+                    "-w", str(tmp_path)], check=True, cwd=tmp_path)
+    wheel = next(tmp_path.glob("video2style-*.whl"))
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for need in ("transfer/weights/denoiser.safetensors", "transfer/weights/motion_encoder.safetensors",
+                 "transfer/weights/captions.safetensors", "transfer/weights/park_stylizer.safetensors",
+                 "video2style/samples/elderly.mp4", "video2style/samples/walk_prior.bvh", "video2style/cli.py",
+                 "motioncore/humanoid.py", "lifting/pipeline.py"):
+        assert need in names, need
+    entry = next(n for n in names if n.endswith("entry_points.txt"))
+    assert "video2style = video2style.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
+    # installed somewhere else, the package finds its own samples and weights
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],
+                   check=True, cwd=tmp_path)
+    code = ("from video2style.demo import SAMPLES, sample_clips; from video2style.pipeline import weights_path; "
+            "print(SAMPLES); print(len(sample_clips())); print(weights_path('denoiser.safetensors'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
+                         env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"}).stdout.split()
+    assert out[0].startswith(str(target)) and int(out[1]) >= 4 and out[2].startswith(str(target))
