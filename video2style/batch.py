@@ -140,8 +140,10 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
     for ci, clip in enumerate(clips, 1):
         where = out_dir / key / clip.relative_to(content_dir).parent  # subfolders kept: no two clips collide
         out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
+        player = where / f"{clip.stem}_player.js"
         if out_bvh.is_file() and preview.is_file():
-            report.add(video=video.name, clip=clip.name, status="skipped (done)", output=str(out_bvh), preview=str(preview))
+            report.add(video=video.name, clip=clip.name, status="skipped (done)", output=str(out_bvh), preview=str(preview),
+                       player=str(player) if player.is_file() else "", content=str(clip), style=_style_facts(style, strength))
             continue
         t1 = time.time()
         try:
@@ -151,30 +153,55 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
             progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")
             continue
         report.add(video=video.name, clip=clip.name, status="done", seconds=time.time() - t1,
-                   output=info["output"], preview=info.get("preview", ""))
+                   output=info["output"], preview=info.get("preview", ""), player=info.get("player", ""),
+                   content=str(clip), style=_style_facts(style, strength))
         progress(f"    [{ci}/{len(clips)}] {clip.name} -> {info['output']}")
 
 
+def _style_facts(style, strength: float) -> str:
+    meta = getattr(style, "meta", {}) or {}
+    facts = [f"style {meta.get('style', '?')!s}"]
+    if meta.get("source"):
+        facts.append(f"learned from {meta['source']}")
+    if meta.get("iterations") is not None:
+        facts.append(f"{meta['iterations']} iterations")
+    return ", ".join(facts) + f"; applied at strength {strength:g}"
+
+
 def write_index(report: BatchReport, out_dir: Path) -> Path:
-    """``out/index.html``: one row per video, one preview per clip."""
-    cells: dict[str, list[str]] = {}
+    """``out/index.html``: per video, a player for each clip (content | style example | result, drawn in the
+    page: no video codec needed) with links to the BVH files and the mp4 preview; failures listed."""
+    from video2style.results_page import page, player_html
+
+    def rel(p: str) -> str:
+        path = Path(p).resolve()
+        try:
+            return str(path.relative_to(out_dir.resolve()))
+        except ValueError:
+            return path.as_uri()
+
+    sections: dict[str, list[str]] = {}
+    facts: dict[str, str] = {}
     for r in report.rows:
+        figs = sections.setdefault(r["video"], [])
+        if r["status"] == "failed":
+            figs.append(f"<figure><figcaption>{html.escape(r.get('clip', 'learning'))}: failed: "
+                        f"{html.escape(r['error'])}</figcaption></figure>")
+            continue
+        facts.setdefault(r["video"], r.get("style", ""))
+        links = [(f"result {Path(r['output']).name}", rel(r["output"]))]
+        if r.get("content"):
+            links.append((f"content {Path(r['content']).name}", rel(r["content"])))
         if r.get("preview") and Path(r["preview"]).is_file():
-            rel = Path(r["preview"]).resolve().relative_to(out_dir.resolve())
-            cells.setdefault(r["video"], []).append(
-                f'<figure><video src="{html.escape(str(rel))}" controls muted loop width="360"></video>'
-                f"<figcaption><a href=\"{html.escape(str(rel))}\">{html.escape(r['clip'])}</a> "
-                f"(content | style example | result)</figcaption></figure>")
-        elif r["status"] == "failed":
-            cells.setdefault(r["video"], []).append(
-                f"<figure><figcaption>{html.escape(r.get('clip', 'learning'))}: failed: {html.escape(r['error'])}</figcaption></figure>")
-    body = "".join(f"<h2>{html.escape(v)}</h2><div class=row>{''.join(c)}</div>" for v, c in cells.items())
-    page = ("<!doctype html><meta charset=utf-8><title>video2style batch</title>"
-            "<style>body{font-family:sans-serif}.row{display:flex;flex-wrap:wrap;gap:8px}figure{margin:0}</style>"
-            "<h1>video2style batch results</h1><p>Previews are MPEG-4 part 2 (mp4v) files, which OpenCV writes "
-            "without extra codecs; browsers that do not play them inline can open the links with VLC or any "
-            "desktop player.</p>"
-            f"{body}")
+            links.append(("mp4 preview", rel(r["preview"])))
+        if r.get("player") and Path(r["player"]).is_file():
+            figs.append(player_html(str(Path(r["player"]).resolve()), rel(r["player"]), r["clip"], links))
+        else:
+            figs.append("<figure><figcaption>" + " · ".join(
+                f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links) + "</figcaption></figure>")
+    text = page("video2style batch results", [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
+                "Each player shows the content clip, the style example and the result side by side: play, scrub "
+                "with the slider, drag to turn the view. The mp4 previews are MPEG-4 part 2 files for desktop players.")
     path = out_dir / "index.html"
-    atomic_write_text(path, page)
+    atomic_write_text(path, text)
     return path

@@ -357,6 +357,10 @@ def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, 
             shown = [(m.slice(0, int(MAX_PREVIEW_SECONDS * m.fps)), label) for m, label in shown]
             info["preview_note"] = f"the preview shows the first {MAX_PREVIEW_SECONDS:g} s of {clip.canonical.duration:.0f} s"
         panels = [panel(m, label) for m, label in shown]
+        from video2style.results_page import write_player_data
+
+        player = Path(out_dir) / f"{stem}_player.js"
+        info["player"] = str(write_player_data(player, str(player.resolve()), shown))
         size = (360, 360) if len(panels) <= 4 else (280, 280)
         info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info
