@@ -89,3 +89,23 @@ def test_a_full_disk_is_one_line_and_leaves_no_temp_file(tmp_path, capsys, monke
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith(("rendering", "\r"))]
     assert err == [f"video2style preview: error: {out}: No space left on device"]
     assert not out.exists() and not [p for p in out.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_small_things_users_notice(tmp_path, capsys):
+    import pytest
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.startswith("video2style ")
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    assert main(["demo", "-o", str(afile)]) == 1
+    assert "names a file; give a folder" in capsys.readouterr().err
+    assert main(["preview", "a.bvh", "-o", str(tmp_path / "x.gif")]) == 1
+    assert "previews are .mp4" in capsys.readouterr().err and not (tmp_path / "x.gif").exists()
+    assert main(["preview", "a.bvh", "-o", str(afile / "x.mp4")]) == 1
+    assert "is a file" in capsys.readouterr().err
+    from video2style.cli import build_parser
+
+    for action in build_parser()._subparsers._group_actions[0].choices["apply"]._actions:
+        assert action.help, action.option_strings

@@ -44,9 +44,20 @@ def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     parent = path if is_dir else path.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+    if not parent.is_dir():
+        raise CliError(f"{parent}: is a file, so {flag} {path} cannot be made inside it")
+    if not os.access(parent, os.W_OK | os.X_OK):
         raise CliError(f"{parent}: cannot write here ({flag} {path})")
     return path
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("video2style")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
 
 
 def _positive(v: str) -> float:
@@ -78,7 +89,10 @@ def cmd_preview(args) -> None:
     from video2style.preview import preview_bvh_files
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
-    out = preview_bvh_files(args.clips, _writable(args.output, "-o"), canonical=args.canonical, joint_map=joint_map,
+    _writable(args.output, "-o")
+    if args.output.suffix.lower() != ".mp4":
+        raise CliError(f"{args.output}: previews are .mp4 videos; give -o NAME.mp4")
+    out = preview_bvh_files(args.clips, args.output, canonical=args.canonical, joint_map=joint_map,
                             notify=lambda s: print(s, file=sys.stderr))
     print(f"wrote {out}")
 
@@ -202,7 +216,8 @@ def cmd_apply(args) -> None:
         if info.get("detected"):
             extra = f"; read as {info['detected']}: {'neutralised first' if info['neutralized'] else 'not neutralised'}"
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        skate = f", foot skating {100 * info['skating_before']:.1f}% -> {100 * info['skating_after']:.1f}%" if "skating_after" in info else ""
+        skate = (f", planted feet sliding in {100 * info['skating_before']:.1f}% of frames -> "
+                 f"{100 * info['skating_after']:.1f}% after IK" if "skating_after" in info else "")
         tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
               f"{tempo}{extra}{skate})")
@@ -332,7 +347,7 @@ def cmd_batch(args) -> None:
 def cmd_demo(args) -> None:
     from video2style.demo import run_demo
 
-    report = run_demo(args.out)
+    report = run_demo(_writable(args.out, "-o", is_dir=True))
     if report.failures:
         raise CliError(f"{len(report.failures)} demo item(s) failed (see the table)")
 
@@ -354,6 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = argparse.ArgumentParser(prog="video2style", description=__doc__, epilog=EXAMPLES,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"video2style {_version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     m = sub.add_parser("demo", help="run the pipeline on the bundled samples/ (project-made clips)")
@@ -365,12 +381,12 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--bandai1", type=Path, help="Bandai-Namco-Research-Motiondataset-1 (seen styles) .tar.xz")
     d.add_argument("-o", "--out", type=Path, default=default_dataset_dir(), help="cache folder (default: %(default)s)")
     d.add_argument("--seed", type=int, default=0, help="split seed (default: %(default)s)")
-    d.add_argument("-q", "--quiet", action="store_true")
+    d.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     d.set_defaults(func=cmd_dataset)
 
     v = sub.add_parser("preview", help="render BVH clips side by side to an mp4",
                        epilog="example: video2style preview a.bvh b.bvh --canonical -o ab.mp4")
-    v.add_argument("clips", nargs="+", type=Path)
+    v.add_argument("clips", nargs="+", type=Path, help="BVH files, drawn side by side")
     v.add_argument("-o", "--output", type=Path, required=True, help="output .mp4")
     v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
     v.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
@@ -431,7 +447,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--tempo", default="off",
                     help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
                          "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0, help="noise seed: the same seed gives the same result (default: %(default)s)")
     ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                     help="neutralise styled content first (auto: when the motion encoder recognises a style)")
     ap.add_argument("--domain", help="stgcn: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
@@ -440,13 +456,13 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mix", help="stgcn: interpolate towards another domain or another seed (integer)")
     ap.add_argument("--mix-steps", type=int, default=5, help="stgcn: interpolation outputs, ends included (default: %(default)s)")
     ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
-    ap.add_argument("--no-preview", action="store_true")
+    ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
     ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     ap.set_defaults(func=cmd_apply)
 
     po = sub.add_parser("pose", help="video of one person -> BVH on the canonical skeleton (+ preview)",
                         epilog="example: video2style pose walk.mp4 -o walk.bvh --preview walk_pose.mp4")
-    po.add_argument("video", type=Path)
+    po.add_argument("video", type=Path, help="a video of one person (mp4, mov, avi, mkv, webm)")
     po.add_argument("-o", "--output", type=Path, help="output .bvh (default: the video's name with .bvh)")
     po.add_argument("--preview", type=Path, help="also write an mp4: landmarks on the frames beside the fitted skeleton")
     po.add_argument("--cutoff", type=float, default=3.0, help="Butterworth low-pass cutoff in Hz, 0 = off (default: %(default)s)")
@@ -454,48 +470,48 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("--trajectory", default="auto", help="root path from foot contacts, the camera model, or auto (default)")
     po.add_argument("--start", type=float, help="lift the video from this time on, in seconds")
     po.add_argument("--end", type=float, help="lift the video up to this time, in seconds")
-    po.add_argument("-q", "--quiet", action="store_true")
+    po.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     po.set_defaults(func=cmd_pose)
 
     b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
                        epilog="example: video2style batch videos/ --content library/ -o results/")
     b.add_argument("videos", type=Path, help="folder of videos")
     b.add_argument("--content", type=Path, required=True, help="folder of BVH clips (searched recursively)")
-    b.add_argument("-o", "--output", type=Path, required=True)
-    b.add_argument("--strength", type=float, default=0.5)
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
+    b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
+    b.add_argument("--seed", type=int, default=0, help="noise seed for apply (default: %(default)s)")
     b.set_defaults(func=cmd_batch)
 
     t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")
     t.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     t.add_argument("--out", type=Path, default=cache_dir() / "runs" / "prior", help="run folder (default: %(default)s)")
-    t.add_argument("--max-minutes", type=_positive, default=60.0)
-    t.add_argument("--max-steps", type=int, default=10**9)
+    t.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
+    t.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
     for name, typ in [("width", int), ("layers", int), ("heads", int), ("ff", int), ("batch_size", int), ("window", int),
                       ("lr", float), ("seed", int)]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
-    t.add_argument("-q", "--quiet", action="store_true")
+    t.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     t.set_defaults(func=cmd_train_prior)
 
     e = sub.add_parser("train-encoder", help="train (or resume) the motion-text encoder on top of a trained prior")
     e.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     e.add_argument("--prior", type=Path, required=True, help="the prior's denoiser.safetensors")
     e.add_argument("--out", type=Path, default=cache_dir() / "runs" / "encoder", help="run folder (default: %(default)s)")
-    e.add_argument("--max-minutes", type=_positive, default=30.0)
-    e.add_argument("--max-steps", type=int, default=10**9)
+    e.add_argument("--max-minutes", type=_positive, default=30.0, help="stop after this long; run again to resume (default: %(default)s)")
+    e.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
     for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", int)]:
         e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
-    e.add_argument("-q", "--quiet", action="store_true")
+    e.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     e.set_defaults(func=cmd_train_encoder)
 
     tp = sub.add_parser("train-park", help="train (or resume) Park et al.'s ST-GCN stylizer on the Bandai-2 styles")
     tp.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tp.add_argument("--out", type=Path, default=cache_dir() / "runs" / "park", help="run folder (default: %(default)s)")
     tp.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/park_stylizer.safetensors)")
-    tp.add_argument("--max-minutes", type=_positive, default=60.0)
-    tp.add_argument("--max-steps", type=int, default=100_000)
+    tp.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
+    tp.add_argument("--max-steps", type=int, default=100_000, help="stop at this many optimiser steps in all (default: %(default)s)")
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
     for name in ("batch_size", "window", "seed", "ds_decay_steps"):
         tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
@@ -504,19 +520,19 @@ def build_parser() -> argparse.ArgumentParser:
                     help="weight of the diversity-sensitive loss (default 1, as in the paper)")
     tp.add_argument("--init", type=Path, default=None,
                     help="start a new run from exported weights (G/E/F; D fresh), e.g. to fine-tune with another --lambda-ds")
-    tp.add_argument("-q", "--quiet", action="store_true")
+    tp.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     tp.set_defaults(func=cmd_train_park)
 
     tc = sub.add_parser("train-classifier", help="train (or resume) an ST-GCN content or style classifier for evaluate")
-    tc.add_argument("--target", choices=["content", "style"], required=True)
+    tc.add_argument("--target", choices=["content", "style"], required=True, help="what the classifier recognises")
     tc.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tc.add_argument("--out", type=Path, help="run folder (default: <cache>/runs/classifier_<target>)")
     tc.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/classifier_<target>.safetensors)")
-    tc.add_argument("--max-minutes", type=_positive, default=10.0)
-    tc.add_argument("--max-steps", type=int, default=600)
-    tc.add_argument("--threads", type=int, default=0)
-    tc.add_argument("--seed", type=int, default=None)
-    tc.add_argument("-q", "--quiet", action="store_true")
+    tc.add_argument("--max-minutes", type=_positive, default=10.0, help="stop after this long; run again to resume (default: %(default)s)")
+    tc.add_argument("--max-steps", type=int, default=600, help="stop at this many optimiser steps in all (default: %(default)s)")
+    tc.add_argument("--threads", type=int, default=0, help="torch threads, 0 = torch's default (default: %(default)s)")
+    tc.add_argument("--seed", type=int, default=None, help="random seed (default: the config's)")
+    tc.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")
 
     ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
@@ -534,7 +550,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="clips to evaluate on: val to choose settings, test to report (default: %(default)s)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
     ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
-    ev.add_argument("--seed", type=int, default=0)
+    ev.add_argument("--seed", type=int, default=0, help="seed for example draws and noise (default: %(default)s)")
     ev.set_defaults(func=cmd_evaluate)
     return p
 
