@@ -109,3 +109,16 @@ def test_small_things_users_notice(tmp_path, capsys):
 
     for action in build_parser()._subparsers._group_actions[0].choices["apply"]._actions:
         assert action.help, action.option_strings
+
+
+def test_models_is_an_explicit_step_with_an_offline_route(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("VIDEO2STYLE_CACHE", str(tmp_path / "cache"))
+    assert main(["models", "--check"]) == 1
+    err = capsys.readouterr().err
+    assert "missing" in err and "36 MB" in err and "Apache" in err and "--wheel" in err
+    bad = tmp_path / "bad.whl"
+    bad.write_text("not a zip")
+    assert main(["models", "--wheel", str(bad)]) == 1
+    assert "not a zip file" in capsys.readouterr().err
+    assert main(["models", "--wheel", str(tmp_path / "missing.whl")]) == 1
+    assert "no such file" in capsys.readouterr().err

@@ -10,6 +10,7 @@ from pathlib import Path
 
 EXAMPLES = """examples:
   video2style demo                                   # everything on the bundled samples
+  video2style models                                 # the pose models for videos, once (or --wheel FILE offline)
   video2style pose walk.mp4 -o walk.bvh --preview walk_pose.mp4
   video2style learn old_man.mp4 --style old -o old.v2s
   video2style apply old.v2s library/ -o out/
@@ -126,6 +127,28 @@ def cmd_skeleton(args) -> None:
         print(f"wrote {write_map(rep, args.write_map)} (edit it, then pass --joint-map {args.write_map})")
     if args.preview:
         print(f"wrote {render_roles(rep, args.preview)}")
+
+
+def cmd_models(args) -> None:
+    from lifting.blazepose.assets import WHEEL_ABOUT, ModelUnavailableError, ensure_models, find_models, model_dir
+
+    found = find_models()
+    if found is not None and args.wheel is None:
+        print("BlazePose models: ready")
+        for name, path in found.items():
+            print(f"  {name}: {path} ({path.stat().st_size / 1e6:.1f} MB)")
+        return
+    if args.check:
+        raise CliError(f"BlazePose models: missing from {model_dir()}; run `video2style models` (fetches {WHEEL_ABOUT}) "
+                       "or `video2style models --wheel FILE.whl` offline")
+    if args.wheel is not None and not args.wheel.is_file():
+        raise CliError(f"{args.wheel}: no such file (expected the mediapipe wheel)")
+    try:
+        paths = ensure_models(wheel=args.wheel)
+    except ModelUnavailableError as e:
+        raise CliError(" ".join(str(e).split())) from None
+    for name, path in paths.items():
+        print(f"  {name}: {path}")
 
 
 def cmd_train_prior(args) -> None:
@@ -391,6 +414,18 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
     v.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     v.set_defaults(func=cmd_preview)
+
+    mo = sub.add_parser("models", help="get the pose models a video needs (one time; shows what is fetched)",
+                        epilog="examples:\n  video2style models                       # fetch from PyPI once (about 36 MB)\n"
+                               "  video2style models --wheel mediapipe-0.10.14-cp311-...whl   # offline\n"
+                               "  video2style models --check               # exit 1 if they are missing\n\n"
+                               "The BlazePose models are read from MediaPipe's wheel (Apache License 2.0), checked against\n"
+                               "pinned sha256 digests and converted to ONNX in the cache folder ($VIDEO2STYLE_CACHE);\n"
+                               "mediapipe itself is never installed. The other models ship inside video2style.",
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    mo.add_argument("--wheel", type=Path, help="a mediapipe 0.10.14 wheel you already have (no network needed)")
+    mo.add_argument("--check", action="store_true", help="only say whether they are there (exit 1 if not)")
+    mo.set_defaults(func=cmd_models)
 
     sk = sub.add_parser("skeleton", help="show which joint of a BVH file plays each role (and write a joint map)",
                         epilog="examples:\n  video2style skeleton mixamo_walk.bvh\n"

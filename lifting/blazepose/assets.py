@@ -10,8 +10,10 @@ else the platform's user cache dir (``$XDG_CACHE_HOME`` or ``~/.cache`` on
 Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) plus
 ``video2style``. The ONNX files live in ``<cache>/blazepose/<CONVERTER_TAG>/``.
 
-Offline use: set ``$VIDEO2STYLE_MEDIAPIPE_WHEEL`` to a downloaded wheel, or
-copy already converted ``.onnx`` files into the directory named above.
+Getting them is a visible step: ``video2style models`` does it on purpose (``--wheel FILE`` offline), and
+a first ``pose`` or ``learn`` on a video says what it fetches, how big it is and under which licence.
+Offline use: ``video2style models --wheel FILE``, or set ``$VIDEO2STYLE_MEDIAPIPE_WHEEL`` to a
+downloaded wheel, or copy already converted ``.onnx`` files into the directory named above.
 """
 
 from __future__ import annotations
@@ -85,7 +87,25 @@ def model_dir(cache_dir: str | Path | None = None) -> Path:
     return resolve_cache_dir(cache_dir) / "blazepose" / CONVERTER_TAG
 
 
-def ensure_models(cache_dir: str | Path | None = None, wheel: str | Path | None = None) -> dict[str, Path]:
+WHEEL_ABOUT = f"the mediapipe {MEDIAPIPE_VERSION} wheel from PyPI (about 36 MB, Apache License 2.0)"
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def find_models(cache_dir: str | Path | None = None) -> dict[str, Path] | None:
+    """The ONNX files if they are already there, else None (nothing is fetched)."""
+    root = resolve_cache_dir(cache_dir)
+    for folder in (model_dir(root), root):
+        found = {name: folder / f"{name}.onnx" for name in MODELS}
+        if all(path.is_file() for path in found.values()):
+            return found
+    return None
+
+
+def ensure_models(cache_dir: str | Path | None = None, wheel: str | Path | None = None,
+                  notify=_say) -> dict[str, Path]:
     """Paths of ``pose_detection.onnx`` and ``pose_landmark_full.onnx``, creating them if missing.
 
     Returns ``{"pose_detection": Path, "pose_landmark_full": Path}``. Looks in
@@ -98,19 +118,23 @@ def ensure_models(cache_dir: str | Path | None = None, wheel: str | Path | None 
     """
     root = resolve_cache_dir(cache_dir)
     out_dir = model_dir(root)
-    for folder in (out_dir, root):
-        found = {name: folder / f"{name}.onnx" for name in MODELS}
-        if all(path.is_file() for path in found.values()):
-            return found
+    found = find_models(root)
+    if found is not None:
+        return found
     paths = {name: out_dir / f"{name}.onnx" for name in MODELS}
     missing = [name for name, path in paths.items() if not path.is_file()]
     out_dir.mkdir(parents=True, exist_ok=True)
     wheel = _local_wheel(root, wheel)
     if wheel is not None:
+        notify(f"reading the BlazePose models from {wheel} (sha256-checked) into {out_dir}")
         _convert_members(wheel, missing, paths)
     else:
+        notify(f"one-time setup: the BlazePose pose models are not in {out_dir}; fetching {WHEEL_ABOUT} with pip. "
+               "Only its two model files are read (sha256-checked) and converted; mediapipe is not installed. "
+               "Offline: video2style models --wheel FILE.whl")
         with tempfile.TemporaryDirectory(prefix="video2style-wheel-") as tmp:
             _convert_members(download_wheel(Path(tmp), root), missing, paths)
+    notify(f"BlazePose models ready in {out_dir}")
     return paths
 
 
@@ -129,10 +153,10 @@ def _local_wheel(root: Path, wheel: str | Path | None) -> Path | None:
 
 def download_wheel(dest: Path, cache_root: Path | None = None) -> Path:
     """``pip download`` the pinned mediapipe wheel into ``dest``; return its path."""
-    cmd = [sys.executable, "-m", "pip", *PIP_DOWNLOAD_ARGS, "-d", str(dest)]
-    try:
-        proc = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=600)
-        failure = None if proc.returncode == 0 else (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+    cmd = [sys.executable, "-m", "pip", *PIP_DOWNLOAD_ARGS, "-d", str(dest), "--progress-bar", "on"]
+    try:  # pip's own progress bar goes to the user's terminal
+        proc = subprocess.run(cmd, check=False, stdout=sys.stderr, stderr=sys.stderr, timeout=600)
+        failure = None if proc.returncode == 0 else [f"pip exited with status {proc.returncode} (its output is above)"]
     except (OSError, subprocess.TimeoutExpired) as exc:
         failure = [str(exc)]
     wheels = sorted(dest.glob(f"mediapipe-{MEDIAPIPE_VERSION}-*.whl"))
