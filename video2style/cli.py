@@ -130,7 +130,13 @@ def cmd_skeleton(args) -> None:
 
 
 def cmd_models(args) -> None:
-    from lifting.blazepose.assets import WHEEL_ABOUT, ModelUnavailableError, ensure_models, find_models, model_dir
+    from lifting.blazepose.assets import (
+        WHEEL_ABOUT,
+        ModelUnavailableError,
+        ensure_models,
+        find_models,
+        model_dir,
+    )
 
     found = find_models()
     if found is not None and args.wheel is None:
