@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import butter, filtfilt
 
 DEFAULT_CUTOFF_HZ = 3.0  # Hu et al. 2024, §4.6.1
 DEFAULT_ORDER = 4
@@ -13,7 +12,7 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float | None = DEFAULT_CUTOFF_
             axis: int = 0) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``x`` along ``axis`` (time), sampled at ``fps``.
 
-    ``scipy.signal.butter`` + ``filtfilt`` (forward and backward, so no lag; the effective
+    Butterworth + ``filtfilt`` as scipy.signal has them (forward and backward, so no lag; the effective
     order is ``2 * order``), with odd-extension padding shortened for short clips. ``cutoff_hz``
     None, 0 or at/above the Nyquist frequency returns a copy unfiltered. ``x`` must be finite.
     """
@@ -27,9 +26,80 @@ def lowpass(x: np.ndarray, fps: float, cutoff_hz: float | None = DEFAULT_CUTOFF_
         return x.copy()
     if not np.isfinite(x).all():
         raise ValueError("lowpass: expected finite values; interpolate gaps first")
-    b, a = butter(order, cutoff_hz / (0.5 * fps), btype="low")
+    b, a = butterworth(order, cutoff_hz / (0.5 * fps))
     padlen = min(3 * max(len(a), len(b)), n - 1)
-    return np.ascontiguousarray(filtfilt(b, a, x, axis=axis, padlen=padlen))
+    y = _filtfilt(b, a, np.moveaxis(x, axis, 0).reshape(n, -1), padlen)
+    return np.ascontiguousarray(np.moveaxis(y.reshape(np.moveaxis(x, axis, 0).shape), 0, axis))
+
+
+def butterworth(order: int, wn: float) -> tuple[np.ndarray, np.ndarray]:
+    """Digital low-pass Butterworth ``(b, a)``, ``wn`` the cutoff as a fraction of Nyquist: the analog
+    prototype's poles, pre-warped, through the bilinear transform (what ``scipy.signal.butter`` does;
+    written out here because importing scipy.signal costs most of a second at every start)."""
+    if not 0 < wn < 1:
+        raise ValueError(f"butterworth: expected 0 < wn < 1, got {wn}")
+    k = np.arange(-order + 1, order, 2)
+    poles = -np.exp(1j * np.pi * k / (2 * order))  # unit-cutoff analog prototype, left half-plane
+    warped = 4.0 * np.tan(np.pi * wn / 2.0)  # fs = 2 as scipy
+    p = warped * poles
+    z_poles = (4.0 + p) / (4.0 - p)
+    gain = np.real(warped**order / np.prod(4.0 - p))
+    b = gain * np.real(np.poly(-np.ones(order)))
+    a = np.real(np.poly(z_poles))
+    return b, a
+
+
+def _lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
+    """Direct form II transposed along axis 0 of ``x (T, C)``, initial state ``zi (order, C)``."""
+    y = np.empty_like(x)
+    z = zi.copy()
+    for t in range(x.shape[0]):
+        y[t] = b[0] * x[t] + z[0]
+        z[:-1] = z[1:] + b[1:-1, None] * x[t] - a[1:-1, None] * y[t]
+        z[-1] = b[-1] * x[t] - a[-1] * y[t]
+    return y
+
+
+def _lfilter_zi(b: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The steady-state initial conditions for a unit step (as ``scipy.signal.lfilter_zi``)."""
+    n = len(a)
+    companion = np.zeros((n - 1, n - 1))
+    companion[0] = -a[1:]
+    companion[1:, :-1] = np.eye(n - 2)
+    i_minus_a = np.eye(n - 1) - companion.T
+    return np.linalg.solve(i_minus_a, b[1:] - a[1:] * b[0])
+
+
+def _filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
+    """Zero-phase filtering of ``x (T, C)`` along time with odd extension by ``padlen`` samples."""
+    if padlen > 0:
+        x = np.concatenate([2 * x[:1] - x[padlen:0:-1], x, 2 * x[-1:] - x[-2:-padlen - 2:-1]])
+    zi = _lfilter_zi(b, a)[:, None]
+    y = _lfilter(b, a, x, zi * x[:1])
+    y = _lfilter(b, a, y[::-1], zi * y[-1:])[::-1]
+    return y[padlen:len(y) - padlen] if padlen > 0 else y
+
+
+def _windows(x: np.ndarray, size: int) -> np.ndarray:
+    """Centred windows ``(T, size)`` over ``x (T,)``, edges repeated (scipy.ndimage's mode "nearest")."""
+    half = size // 2
+    return np.lib.stride_tricks.sliding_window_view(np.pad(x, (half, size - 1 - half), mode="edge"), size)
+
+
+def percentile_1d(x: np.ndarray, percentile: float, size: int) -> np.ndarray:
+    """Sliding percentile of ``x (T,)`` over ``size`` frames, as ``scipy.ndimage.percentile_filter``."""
+    rank = min(size - 1, int(size * percentile / 100.0))
+    return np.partition(_windows(x, size), rank, axis=1)[:, rank].copy()
+
+
+def maximum_1d(x: np.ndarray, size: int) -> np.ndarray:
+    """Sliding maximum, as ``scipy.ndimage.maximum_filter1d(mode="nearest")``."""
+    return _windows(x, size).max(axis=1)
+
+
+def mean_1d(x: np.ndarray, size: int) -> np.ndarray:
+    """Sliding mean, as ``scipy.ndimage.uniform_filter1d(mode="nearest")``."""
+    return _windows(x, size).mean(axis=1)
 
 
 def interpolate_gaps(x: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ import numpy as np
 import torch
 
 from lifting.blazepose.landmarks import POSE_LANDMARKS
+from lifting.filtering import lowpass, maximum_1d, mean_1d, percentile_1d
 from motioncore import quat
 from motioncore.kinematics import rest_positions
 from motioncore.skeleton import CANONICAL
@@ -179,13 +180,11 @@ def floor_level(clearance: np.ndarray, fps: float, window_s: float = 2.0) -> np.
     """The floor height ``(T,)`` under the camera path: the 10th percentile of the lowest foot
     over a sliding window, so a floor that seems to slope (a slightly wrong camera tilt, depth
     errors of a far person) still meets the feet."""
-    from scipy.ndimage import percentile_filter
-
     low = clearance.min(axis=1)
     size = max(3, 2 * round(0.5 * window_s * fps) + 1)
     if len(low) <= size:
         return np.full(len(low), np.quantile(low, 0.1))
-    return percentile_filter(low, 10, size=size, mode="nearest")
+    return percentile_1d(low, 10, size)
 
 
 def contact_weights(clearance: np.ndarray, floor: np.ndarray | float) -> np.ndarray:
@@ -236,7 +235,7 @@ def contact_trajectory(rel: np.ndarray, root: np.ndarray, fps: float) -> tuple[n
 def blend_paths(contact: np.ndarray, camera: np.ndarray, fps: float, crossover_hz: float = 0.5) -> np.ndarray:
     """Horizontal path: the camera path below ``crossover_hz`` (where it is right on average),
     the contact path above (where it keeps the feet still). Heights come from ``contact``."""
-    from lifting.filtering import lowpass
+
 
     out = contact.copy()
     xz = [0, 2]
@@ -248,7 +247,7 @@ def moving_ground(contact: np.ndarray, camera: np.ndarray, fps: float) -> bool:
     """True when the legs walk but the camera path barely moves (a treadmill, or a camera that
     follows the person): mean horizontal speeds (below 0.5 Hz) under 35 % of the contact path's,
     which is over 0.3 m/s."""
-    from lifting.filtering import lowpass
+
 
     if len(contact) < 3:
         return False
@@ -259,13 +258,11 @@ def moving_ground(contact: np.ndarray, camera: np.ndarray, fps: float) -> bool:
 
 def floor_lift(rel: np.ndarray, root_y: np.ndarray, fps: float, window_s: float = 0.15) -> np.ndarray:
     """A smooth non-negative lift ``(T,)`` of the root that keeps every foot at or above y = 0."""
-    from scipy.ndimage import maximum_filter1d, uniform_filter1d
-
     need = np.maximum(0.0, -foot_clearance(rel, root_y).min(axis=1))
     if not need.any():
         return need
     k = 2 * max(1, round(window_s * fps)) + 1
-    lift = uniform_filter1d(maximum_filter1d(need, k, mode="nearest"), k, mode="nearest")
+    lift = mean_1d(maximum_1d(need, k), k)
     return np.maximum(lift, need)  # the box average of the dilation is already >= need; guard rounding
 
 

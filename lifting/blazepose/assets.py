@@ -25,8 +25,10 @@ import sys
 import tempfile
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import onnx
+if TYPE_CHECKING:  # onnx is imported only to convert (a second of start-up otherwise)
+    import onnx
 
 MEDIAPIPE_VERSION = "0.10.14"
 # Bump when the converter's output changes, so stale caches are not reused.
