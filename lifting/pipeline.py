@@ -65,7 +65,7 @@ from lifting.fit import (
     solve_translation,
     up_rotation,
 )
-from lifting.video import iter_frames, video_info
+from lifting.video import iter_frames, prefetched, video_info
 from motioncore import quat
 from motioncore.ik_fit import fit_positions
 from motioncore.motion import Motion, Span, check_span
@@ -137,7 +137,7 @@ def track(path: str | Path, progress: Progress = None, tracker: PoseTracker | No
     decoded = 0
     bar = _Reporter(progress, expected, f"{path.name}: tracking")
     try:
-        for _, time_s, frame in iter_frames(path):
+        for _, time_s, frame in prefetched(iter_frames(path)):  # decoding overlaps tracking
             decoded += 1
             bar.update()
             if (start_s is not None and time_s < start_s - 1e-9) or (end_s is not None and time_s >= end_s - 1e-9):

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import queue
+import threading
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
@@ -82,3 +84,41 @@ def _frames(path: Path, cap: cv2.VideoCapture, fps: float) -> Iterator[tuple[int
             raise ValueError(f"video has no readable frames: {path}")
     finally:
         cap.release()
+
+
+def prefetched(items, depth: int = 4):
+    """Iterate ``items`` (e.g. :func:`iter_frames`) with a reader thread a few items ahead, so decoding
+    overlaps the work on each item; an error in the reader is raised here."""
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    done, stop, error = object(), threading.Event(), []
+
+    def read() -> None:
+        try:
+            for item in items:
+                while not stop.is_set():
+                    try:
+                        q.put(item, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+        except BaseException as e:  # noqa: BLE001 - handed to the consumer
+            error.append(e)
+        finally:
+            q.put(done)
+
+    reader = threading.Thread(target=read, name="video-reader", daemon=True)
+    reader.start()
+    try:
+        while (item := q.get()) is not done:
+            yield item
+        if error:
+            raise error[0]
+    finally:
+        stop.set()
+        while reader.is_alive():  # let a blocked reader finish
+            try:
+                q.get_nowait()
+            except queue.Empty:
+                reader.join(timeout=0.05)

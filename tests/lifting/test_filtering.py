@@ -29,3 +29,21 @@ def test_sliding_filters_are_scipy_ndimages():
         assert np.array_equal(percentile_1d(x, 10, size), percentile_filter(x, 10, size=size, mode="nearest"))
         assert np.array_equal(maximum_1d(x, size), maximum_filter1d(x, size, mode="nearest"))
         assert np.allclose(mean_1d(x, size), uniform_filter1d(x, size, mode="nearest"), atol=1e-12)
+
+
+def test_prefetched_reads_ahead_keeps_order_and_raises_the_readers_error():
+    import pytest
+
+    from lifting.video import prefetched
+
+    assert list(prefetched(iter(range(50)), depth=3)) == list(range(50))
+
+    def broken():
+        yield 1
+        raise ValueError("bad frame")
+
+    with pytest.raises(ValueError, match="bad frame"):
+        list(prefetched(broken()))
+    gen = prefetched(iter(range(1000)), depth=2)
+    assert next(gen) == 0
+    gen.close()  # stopping early leaves no reader blocked
