@@ -102,6 +102,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: floa
             _one_video(video, keys[video], f"[video {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, strength,
                        learn_config, seed, progress, report)
         write_index(report, out_dir)
+        write_report(report, out_dir)
     return report
 
 
@@ -166,6 +167,15 @@ def _style_facts(style, strength: float) -> str:
     if meta.get("iterations") is not None:
         facts.append(f"{meta['iterations']} iterations")
     return ", ".join(facts) + f"; applied at strength {strength:g}"
+
+
+def write_report(report: BatchReport, out_dir: Path) -> Path:
+    """``out/report.json``: one row per item (video, clip, status, seconds, output, error, ...)."""
+    import json
+
+    path = out_dir / "report.json"
+    atomic_write_text(path, json.dumps(report.rows, indent=1, default=str) + "\n")
+    return path
 
 
 def write_index(report: BatchReport, out_dir: Path) -> Path:

@@ -366,8 +366,17 @@ def cmd_batch(args) -> None:
 
     _check_strength(args.strength)
     _writable(args.output, "-o", is_dir=True)
-    report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed)
+    if args.ray is not None:
+        from video2style.batch_ray import run_batch_ray
+
+        report = run_batch_ray(args.videos, args.content, args.output, args.strength, seed=args.seed,
+                               address=None if args.ray == "local" else args.ray, workers=args.workers)
+    else:
+        if args.workers is not None:
+            raise CliError("batch: --workers goes with --ray")
+        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed)
     print(report.table())
+    print(f"report: {args.output / 'report.json'}")
     print(f"index: {args.output / 'index.html'}")
     if report.failures:
         raise CliError(f"{len(report.failures)} item(s) failed (see the table)")
@@ -521,6 +530,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
     b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
     b.add_argument("--seed", type=int, default=0, help="noise seed for apply (default: %(default)s)")
+    b.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                   help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
+                        "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")
+    b.add_argument("--workers", type=_positive_int, help="--ray without an address: CPUs to use (default: all)")
     b.set_defaults(func=cmd_batch)
 
     t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")

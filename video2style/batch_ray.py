@@ -1,0 +1,149 @@
+"""``video2style batch --ray``: the same batch as :mod:`video2style.batch`, spread over a Ray cluster.
+
+Work units: one task per video's ``learn`` (about a minute of CPU), then, as each style lands, one task
+per chunk of clips to ``apply`` it to (many short items per task, so scheduling does not dominate).
+Each worker process loads the models once (:func:`video2style.pipeline.load_models` is cached per
+process) and runs torch on one thread, so workers × threads never exceed the cores Ray was given.
+Style files go to ``OUT/styles`` and reach the apply tasks by that path: on several machines ``OUT``
+must be a folder they all see (NFS, a mounted bucket). Every file is written atomically, an item is
+done only when its BVH and preview both exist, a failing item is tried ``retries`` more times and then
+reported, and a task whose worker dies is run again by Ray (what it finished is skipped).
+"""
+from __future__ import annotations
+
+import os
+import socket
+import time
+from pathlib import Path
+
+from video2style.batch import (
+    VIDEO_SUFFIXES,
+    BatchReport,
+    _style_facts,
+    find_videos,
+    folder_lock,
+    sweep_temp_files,
+    video_keys,
+    write_index,
+    write_report,
+)
+
+
+def _worker() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _learn_job(video: str, style_path: str, learn_config) -> dict:
+    """Load or learn one video's style (runs in a Ray worker)."""
+    import torch
+
+    from video2style.batch import _style_for
+
+    torch.set_num_threads(1)
+    t0 = time.time()
+    try:
+        style = _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None)
+        return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker(),
+                "style_facts": style.meta}
+    except Exception as e:  # noqa: BLE001 - reported as the video's failure
+        return {"video": Path(video).name, "status": "failed", "error": f"learn: {e}", "seconds": time.time() - t0,
+                "worker": _worker()}
+
+
+def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], strength: float, seed: int,
+               retries: int) -> list[dict]:
+    """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker)."""
+    import torch
+
+    from transfer.style import Style, style_model
+    from video2style.pipeline import apply_file, load_models
+
+    torch.set_num_threads(1)
+    style = Style.load(Path(style_path))
+    model = style_model(load_models().prior, style)
+    facts = _style_facts(style, strength)
+    rows = []
+    for clip, where in items:
+        clip, where = Path(clip), Path(where)
+        out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
+        player = where / f"{clip.stem}_player.js"
+        row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "worker": _worker(),
+               "output": str(out_bvh), "preview": str(preview), "player": str(player)}
+        if out_bvh.is_file() and preview.is_file():
+            rows.append({**row, "status": "skipped (done)", "seconds": 0.0, "attempts": 0})
+            continue
+        t0, error = time.time(), None
+        for attempt in range(1, retries + 2):
+            try:
+                apply_file(style, model, clip, where, strength, seed)
+                error = None
+                break
+            except Exception as e:  # noqa: BLE001 - retried, then reported
+                error = str(e)
+        rows.append({**row, "status": "failed" if error else "done", "error": error, "seconds": time.time() - t0,
+                     "attempts": attempt})
+    return rows
+
+
+def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
+                  seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
+                  retries: int = 1, progress=print) -> BatchReport:
+    """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
+    CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
+    ``report.json`` (one row per item: status, seconds, worker, attempts, error)."""
+    try:
+        import ray
+    except ImportError:
+        raise RuntimeError('batch --ray needs Ray: pip install "video2style[ray]"') from None
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    videos = find_videos(videos_dir)
+    clips = sorted(Path(content_dir).rglob("*.bvh"))
+    if not videos:
+        raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
+    if not clips:
+        raise FileNotFoundError(f"{content_dir}: no .bvh clips")
+    keys = video_keys(videos)
+    with folder_lock(out_dir):
+        stale = sweep_temp_files(out_dir)
+        if stale:
+            progress(f"removed {stale} temporary file(s) left by an interrupted run")
+        started_here = not ray.is_initialized()
+        if started_here:
+            ray.init(address=address, num_cpus=workers if address is None else None, include_dashboard=False,
+                     log_to_driver=False, configure_logging=False)
+        try:
+            learn = ray.remote(num_cpus=1, max_retries=3)(_learn_job)
+            apply = ray.remote(num_cpus=1, max_retries=3)(_apply_job)
+            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config): ("learn", v)
+                       for v in videos}
+            report = BatchReport()
+            bar = tqdm(total=len(videos) * (1 + len(clips)), unit="item", desc="batch", disable=progress is None)
+            while pending:
+                done, _ = ray.wait(list(pending), num_returns=1)
+                kind, what = pending.pop(done[0])
+                result = ray.get(done[0])
+                if kind == "learn":
+                    bar.update(1)
+                    if result["status"] == "failed":
+                        report.add(**result)
+                        bar.update(len(clips))
+                        continue
+                    style_path = str(out_dir / "styles" / f"{keys[what]}.v2s")
+                    items = [(str(c), str(out_dir / keys[what] / c.relative_to(content_dir).parent)) for c in clips]
+                    for i in range(0, len(items), chunk):
+                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries)
+                        pending[ref] = ("apply", len(items[i:i + chunk]))
+                else:
+                    for row in result:
+                        report.add(**row)
+                    bar.update(what)
+            bar.close()
+        finally:
+            if started_here:
+                ray.shutdown()
+        sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; every task is over now
+        write_index(report, out_dir)
+        write_report(report, out_dir)
+    return report
