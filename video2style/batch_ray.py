@@ -3,7 +3,8 @@
 Work units: one task per video's ``learn`` (about a minute of CPU), then, as each style lands, one task
 per chunk of clips to ``apply`` it to (many short items per task, so scheduling does not dominate).
 Each worker process loads the models once (:func:`video2style.pipeline.load_models` is cached per
-process) and runs torch on one thread, so workers × threads never exceed the cores Ray was given.
+process) and runs torch on cores / workers threads (one on a cluster), so workers × threads never
+exceed the cores.
 Style files go to ``OUT/styles`` and reach the apply tasks by that path: on several machines ``OUT``
 must be a folder they all see (NFS, a mounted bucket). Every file is written atomically, an item is
 done only when its BVH and preview both exist, a failing item is tried ``retries`` more times and then
@@ -33,13 +34,13 @@ def _worker() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _learn_job(video: str, style_path: str, learn_config) -> dict:
+def _learn_job(video: str, style_path: str, learn_config, threads: int) -> dict:
     """Load or learn one video's style (runs in a Ray worker)."""
     import torch
 
     from video2style.batch import _style_for
 
-    torch.set_num_threads(1)
+    torch.set_num_threads(threads)
     t0 = time.time()
     try:
         style = _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None)
@@ -51,14 +52,14 @@ def _learn_job(video: str, style_path: str, learn_config) -> dict:
 
 
 def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], strength: float, seed: int,
-               retries: int) -> list[dict]:
+               retries: int, threads: int) -> list[dict]:
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker)."""
     import torch
 
     from transfer.style import Style, style_model
     from video2style.pipeline import apply_file, load_models
 
-    torch.set_num_threads(1)
+    torch.set_num_threads(threads)
     style = Style.load(Path(style_path))
     model = style_model(load_models().prior, style)
     facts = _style_facts(style, strength)
@@ -114,10 +115,12 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
             ray.init(address=address, num_cpus=workers if address is None else None, include_dashboard=False,
                      log_to_driver=False, configure_logging=False)
         try:
+            # torch threads per task: the machine's cores shared by the tasks Ray runs at once on it
+            threads = max(1, (os.cpu_count() or 1) // max(1, int(workers or os.cpu_count() or 1))) if address is None else 1
             learn = ray.remote(num_cpus=1, max_retries=3)(_learn_job)
             apply = ray.remote(num_cpus=1, max_retries=3)(_apply_job)
-            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config): ("learn", v)
-                       for v in videos}
+            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads):
+                       ("learn", v) for v in videos}
             report = BatchReport()
             bar = tqdm(total=len(videos) * (1 + len(clips)), unit="item", desc="batch", disable=progress is None)
             while pending:
@@ -133,7 +136,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
                     style_path = str(out_dir / "styles" / f"{keys[what]}.v2s")
                     items = [(str(c), str(out_dir / keys[what] / c.relative_to(content_dir).parent)) for c in clips]
                     for i in range(0, len(items), chunk):
-                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries)
+                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries, threads)
                         pending[ref] = ("apply", len(items[i:i + chunk]))
                 else:
                     for row in result:
