@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +22,7 @@ import cv2
 import numpy as np
 
 from motioncore import quat
-from motioncore.files import publish
+from motioncore.files import atomic_output
 from motioncore.kinematics import fk
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
@@ -222,19 +221,13 @@ def render_frames(motion: Motion, cam: Camera) -> Iterator[np.ndarray]:
 def write_humanoid_video(motion: Motion, cam: Camera, path: str | os.PathLike) -> Path:
     """Write the render of ``motion`` (at its own fps) to an mp4 (mp4v) atomically."""
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".mp4")
-    os.close(fd)
-    writer = cv2.VideoWriter(tmp, cv2.VideoWriter_fourcc(*"mp4v"), float(motion.fps), (cam.width, cam.height))
-    try:
-        if not writer.isOpened():
-            raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
-        for frame in render_frames(motion, cam):
-            writer.write(frame)
-        writer.release()
-        publish(tmp, out)
-    except BaseException:
-        writer.release()
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(out, ".mp4") as tmp:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(motion.fps), (cam.width, cam.height))
+        try:
+            if not writer.isOpened():
+                raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
+            for frame in render_frames(motion, cam):
+                writer.write(frame)
+        finally:
+            writer.release()
     return out

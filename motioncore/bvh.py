@@ -9,16 +9,14 @@ from __future__ import annotations
 import math
 import os
 import re
-import tempfile
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import torch
 
 from motioncore import quat
-from motioncore.files import publish
+from motioncore.files import atomic_output, atomic_write_text  # noqa: F401 - atomic_write_text re-exported
 from motioncore.motion import Motion
 from motioncore.skeleton import Skeleton
 
@@ -439,27 +437,6 @@ def write_bvh(path: str | os.PathLike, motion: Motion, layout: BvhLayout | None 
     """Write atomically (temp file + rename), so a failure never leaves a half-written file; long takes
     are written a chunk of frames at a time."""
     layout = layout or BvhLayout.default(motion.skeleton)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write("\n".join(_header(motion, layout)) + "\n")
-            for a in range(0, motion.num_frames, _CHUNK):
-                f.write("\n".join(_rows(motion, layout, a, min(a + _CHUNK, motion.num_frames))) + "\n")
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        publish(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.write("\n".join(_header(motion, layout)) + "\n")
+        f.writelines("\n".join(_rows(motion, layout, a, min(a + _CHUNK, motion.num_frames))) + "\n" for a in range(0, motion.num_frames, _CHUNK))

@@ -1,7 +1,15 @@
-"""Publishing output files atomically: write to a temporary name in the target folder, then rename."""
+"""Writing output files atomically: a temporary name in the target folder, then one rename.
+
+Every writer in the project goes through :func:`atomic_output` (or :func:`atomic_write_text`), so a
+failure, Ctrl-C or SIGTERM never leaves a half-written file under the real name, and the temporary
+names all have one shape (``.NAME.xxxxxxxx<suffix>``) that a batch can sweep after a killed run.
+"""
 from __future__ import annotations
 
 import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -13,3 +21,27 @@ def publish(tmp: str | os.PathLike, path: str | os.PathLike) -> Path:
     os.chmod(tmp, 0o666 & ~umask)
     os.replace(tmp, path)
     return Path(path)
+
+
+@contextmanager
+def atomic_output(path: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
+    """``with atomic_output(path) as tmp:`` write ``tmp``; on leaving the block it becomes ``path``.
+
+    ``tmp`` is an empty file beside ``path`` (its folder made if needed); ``suffix`` (default: the
+    path's own, ``.tmp`` if it has none) keeps file-type sniffing writers (OpenCV, matplotlib)
+    happy. On any exception, the temporary file is removed and ``path`` is left as it was."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp")
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        publish(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` (UTF-8, ``\\n`` newlines) to ``path`` atomically."""
+    with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.write(text)

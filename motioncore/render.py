@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +17,7 @@ import cv2
 import numpy as np
 import torch
 
-from motioncore.files import publish
+from motioncore.files import atomic_output
 
 BACKGROUND = (240, 238, 234)
 GRID = (150, 150, 150)
@@ -274,23 +273,17 @@ def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: floa
     if not panels:
         raise ValueError("expected at least one panel, got 0")
     out = Path(out_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
     n = max(p.num_frames for p in panels)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=out.suffix or ".mp4")
-    os.close(fd)
-    writer = cv2.VideoWriter(tmp, cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w * len(panels), h))
-    try:
-        if not writer.isOpened():
-            raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
-        for t in range(n):
-            writer.write(render_frame(panels, t, (w, h), fps))
-            if progress and (t + 1 == n or t % max(1, n // 10) == 0):
-                print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
-        writer.release()
+    with atomic_output(out, out.suffix or ".mp4") as tmp:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w * len(panels), h))
+        try:
+            if not writer.isOpened():
+                raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
+            for t in range(n):
+                writer.write(render_frame(panels, t, (w, h), fps))
+                if progress and (t + 1 == n or t % max(1, n // 10) == 0):
+                    print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
+        finally:
+            writer.release()
         check_video(tmp, n, out)
-        publish(tmp, out)
-    except BaseException:
-        writer.release()
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return out

@@ -84,7 +84,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_temp_file(tmp_path, capsys, monke
     def full(src, dst):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(dst))
 
-    monkeypatch.setattr("motioncore.render.publish", full)
+    monkeypatch.setattr("motioncore.files.publish", full)
     assert main(["preview", str(clip), "-o", str(out)]) == 1
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith(("rendering", "\r"))]
     assert err == [f"video2style preview: error: {out}: No space left on device"]

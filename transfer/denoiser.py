@@ -64,17 +64,15 @@ class Denoiser(nn.Module):
 
 def save_model(model: nn.Module, config, path: Path, card: dict | None = None, extra: dict[str, torch.Tensor] | None = None) -> None:
     """Weights to ``path`` (safetensors, config in its metadata) and an optional JSON model card beside it."""
+    from motioncore.files import atomic_output, atomic_write_text
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     tensors = {k: v.detach().contiguous() for k, v in model.state_dict().items()}
     tensors.update(extra or {})
-    tmp = path.with_suffix(".tmp")
-    save_file(tensors, str(tmp), metadata={"config": json.dumps(asdict(config)), "class": type(config).__name__})
-    tmp.replace(path)
+    with atomic_output(path, ".tmp") as tmp:
+        save_file(tensors, str(tmp), metadata={"config": json.dumps(asdict(config)), "class": type(config).__name__})
     if card is not None:
-        card_path = path.with_suffix(".json")
-        card_path.with_suffix(".json.tmp").write_text(json.dumps(card, indent=1))
-        card_path.with_suffix(".json.tmp").replace(card_path)
+        atomic_write_text(path.with_suffix(".json"), json.dumps(card, indent=1))
 
 
 def load_config(path: Path, cls):

@@ -44,23 +44,13 @@ class Style:
 
     def save(self, path: Path) -> None:
         """Write atomically under a temporary name of its own (two writers never share one)."""
-        import os
-        import tempfile
+        from motioncore.files import atomic_output
 
-        from motioncore.files import publish
-
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        os.close(fd)
         tensors = {k: v.to(torch.float16).contiguous() for k, v in self.adapters.items()}
         if self.example is not None:
             tensors["example"] = self.example.float().contiguous()
-        try:
-            save_file(tensors, tmp, metadata={"video2style": json.dumps(self.meta)})
-            publish(tmp, path)
-        finally:
-            Path(tmp).unlink(missing_ok=True)
+        with atomic_output(path, ".tmp") as tmp:
+            save_file(tensors, str(tmp), metadata={"video2style": json.dumps(self.meta)})
 
     @staticmethod
     def load(path: Path) -> Style:

@@ -244,12 +244,12 @@ def plot_tradeoff(rows: list[dict], path: Path, title: str = "") -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
+    from motioncore.files import atomic_output
+
     path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
     try:
-        fig.savefig(tmp)
-        tmp.replace(path)
+        with atomic_output(path, ".png") as tmp:
+            fig.savefig(tmp)
     finally:
         plt.close(fig)
-        tmp.unlink(missing_ok=True)
     return path

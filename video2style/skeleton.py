@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,7 +116,7 @@ def render_roles(rep: SkeletonReport, out: str | os.PathLike, size: int = 720) -
     standing pose), Y-up, with each role's joint coloured and labelled and the extras grey."""
     import cv2
 
-    from motioncore.files import publish
+    from motioncore.files import atomic_output
     from motioncore.render import Panel, render_frame
 
     sk, rig = rep.motion.skeleton, rep.rig
@@ -137,14 +136,7 @@ def render_roles(rep: SkeletonReport, out: str | os.PathLike, size: int = 720) -
     panel = Panel(pos[None], sk.parents, f"{rep.path.name}: roles", colors=colors, labels=labels)
     img = render_frame([panel], 0, (size, size))
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=out.suffix or ".png")
-    os.close(fd)
-    try:
-        if not cv2.imwrite(tmp, img):
+    with atomic_output(out, out.suffix or ".png") as tmp:
+        if not cv2.imwrite(str(tmp), img):
             raise RuntimeError(f"{out}: OpenCV cannot write this image format (use .png or .jpg)")
-        publish(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return out
