@@ -14,6 +14,7 @@ import torch
 from safetensors import safe_open
 from safetensors.torch import load_file, save_file
 
+from motioncore.files import atomic_output
 from transfer.captions import BANDAI2_CONTENTS, content_caption
 from transfer.sampling import generate
 from transfer.scheduler import DiffusionScheduler
@@ -56,8 +57,7 @@ def make_content_bank(prior, text_encoder, out_path: Path, per_content: int = 4,
         text = text_encoder.encode([content_caption(content)] * per_content)
         feats.append(generate(prior, scheduler, text, length, steps, guidance, gen))
         records += [{"caption": content_caption(content), "content": content, "style": "normal", "length": length}] * per_content
-    tmp = Path(out_path).with_suffix(".tmp")
-    save_file({"features": torch.cat(feats).to(torch.float16).contiguous()}, str(tmp),
-              metadata={"records": json.dumps(records), "about": "samples of the video2style prior (project-made)"})
-    tmp.replace(out_path)
+    with atomic_output(out_path, ".tmp") as tmp:
+        save_file({"features": torch.cat(feats).to(torch.float16).contiguous()}, str(tmp),
+                  metadata={"records": json.dumps(records), "about": "samples of the video2style prior (project-made)"})
     return len(records)

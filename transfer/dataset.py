@@ -24,6 +24,7 @@ from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
 from motioncore.bvh import BvhError, atomic_write_text, parse_bvh
+from motioncore.files import atomic_output
 from motioncore.motion import mirror, resample
 from motioncore.representation import FEATURES, encode
 from motioncore.retarget import make_rig, place_on_floor, to_canonical
@@ -129,10 +130,9 @@ def build_dataset(
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = out_dir / ".features.safetensors.tmp"
-    save_file({"features": features.contiguous(), "mean": mean, "std": std}, str(tmp),
-              metadata={"fps": str(fps), "dim": str(FEATURES.dim), "joints": ",".join(CANONICAL.skeleton.names)})
-    tmp.replace(out_dir / "features.safetensors")
+    with atomic_output(out_dir / "features.safetensors", ".tmp") as tmp:
+        save_file({"features": features.contiguous(), "mean": mean, "std": std}, str(tmp),
+                  metadata={"fps": str(fps), "dim": str(FEATURES.dim), "joints": ",".join(CANONICAL.skeleton.names)})
     atomic_write_text(out_dir / "clips.json", json.dumps([asdict(r) for r in records], indent=0))
     by_split = defaultdict(list)
     for n in sorted(split):

@@ -19,6 +19,8 @@ from safetensors import safe_open
 from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
+from motioncore.files import atomic_output
+
 
 def _optimizer_tensors(opt: torch.optim.Optimizer, names: dict[int, str]) -> dict[str, torch.Tensor]:
     out = {}
@@ -69,9 +71,8 @@ class Trainer:
         tensors.update({f"ema.{k}": v.detach().contiguous() for k, v in self.ema.state_dict().items()})
         tensors.update(_optimizer_tensors(self.opt, self.names))
         meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
-        tmp = self.checkpoint_path.with_suffix(".tmp")
-        save_file(tensors, str(tmp), metadata=meta)
-        tmp.replace(self.checkpoint_path)
+        with atomic_output(self.checkpoint_path, ".tmp") as tmp:
+            save_file(tensors, str(tmp), metadata=meta)
 
     def resume(self, explicit: dict) -> bool:
         """Load the checkpoint if present. ``explicit``: settings the user gave that must match it."""

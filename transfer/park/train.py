@@ -24,6 +24,7 @@ from safetensors import safe_open
 from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
+from motioncore.files import atomic_output
 from motioncore.representation import FEATURES
 from transfer.classifiers import WEIGHTS_DIR, labelled_clips
 from transfer.dataset import MotionDataset
@@ -129,9 +130,8 @@ class ParkTraining:
         for name, opt in self.opts.items():
             t.update({f"{name}.{k}": v for k, v in _optimizer_tensors(opt, self.names).items()})
         meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
-        tmp = self.checkpoint_path.with_suffix(".tmp")
-        save_file(t, str(tmp), metadata=meta)
-        tmp.replace(self.checkpoint_path)
+        with atomic_output(self.checkpoint_path, ".tmp") as tmp:
+            save_file(t, str(tmp), metadata=meta)
 
     def resume(self, explicit: dict) -> bool:
         """Load the checkpoint if there is one; ``explicit`` settings must match the saved config."""
