@@ -34,6 +34,7 @@ from motioncore.representation import FEATURES
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.dataset import MotionDataset
 from transfer.denoiser import load_config, save_model
+from transfer.shipped import weights_dir
 from transfer.stgcn import (
     GRAPH_CHANNELS,
     STGCNBlock,
@@ -44,13 +45,12 @@ from transfer.stgcn import (
 )
 from transfer.training import Trainer
 
-WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 TARGETS = {"content": BANDAI2_CONTENTS, "style": STYLES}
 
 
 def default_weights(target: str) -> Path:
-    """``transfer/weights/classifier_{target}.safetensors``."""
-    return WEIGHTS_DIR / f"classifier_{target}.safetensors"
+    """``classifier_{target}.safetensors`` in :func:`transfer.shipped.weights_dir`."""
+    return weights_dir() / f"classifier_{target}.safetensors"
 
 
 @dataclass

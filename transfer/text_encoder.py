@@ -12,6 +12,8 @@ from pathlib import Path
 
 import torch
 
+from transfer.shipped import SHIPPED
+
 EMBED_DIM = 384
 
 
@@ -48,7 +50,7 @@ class TextEncoder:
         return torch.stack([self._cache[t] for t in texts]) if texts else torch.zeros(0, EMBED_DIM)
 
 
-CAPTION_TABLE = Path(__file__).resolve().parent / "weights" / "captions.safetensors"
+CAPTION_TABLE = SHIPPED / "captions.safetensors"  # derived from the text encoder, not trained: always the shipped one
 
 
 def standard_captions() -> list[str]:

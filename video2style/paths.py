@@ -4,8 +4,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-PACKAGE_ROOT = Path(__file__).resolve().parent.parent
-
 
 def cache_dir() -> Path:
     """``$VIDEO2STYLE_CACHE``, else ``$XDG_CACHE_HOME/video2style``, else ``~/.cache/video2style``."""

@@ -14,21 +14,11 @@ from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
-from video2style.paths import PACKAGE_ROOT
+from transfer.shipped import SHIPPED as WEIGHTS  # noqa: F401 - the shipped folder, for tests
+from transfer.shipped import weights_path
 
-WEIGHTS = PACKAGE_ROOT / "transfer" / "weights"
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
 MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
-
-
-def weights_path(name: str) -> Path:
-    """A model file: ``$VIDEO2STYLE_WEIGHTS/name`` if set, else the weights shipped with the package."""
-    base = Path(os.environ.get("VIDEO2STYLE_WEIGHTS", WEIGHTS))
-    path = base / name
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: model weights missing (train them with video2style train-prior / train-encoder, "
-                                "or set VIDEO2STYLE_WEIGHTS to a folder holding them)")
-    return path
 
 
 @dataclass

@@ -26,16 +26,17 @@ from tqdm import tqdm
 
 from motioncore.files import atomic_output
 from motioncore.representation import FEATURES
-from transfer.classifiers import WEIGHTS_DIR, labelled_clips
+from transfer.classifiers import labelled_clips
 from transfer.dataset import MotionDataset
 from transfer.denoiser import save_model
 from transfer.park.losses import LossWeights, d_loss, g_loss
 from transfer.park.networks import Discriminator, ParkConfig, ParkModel, he_init
+from transfer.shipped import weights_dir
 from transfer.training import _load_optimizer, _optimizer_tensors
 
 
 def default_weights() -> Path:
-    return WEIGHTS_DIR / "park_stylizer.safetensors"
+    return weights_dir() / "park_stylizer.safetensors"
 
 
 @dataclass
