@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from motioncore.bvh import atomic_write_text
-from video2style.pipeline import VIDEO_SUFFIXES
+from video2style.pipeline import VIDEO_SUFFIXES, find_bvh_files
 
 
 @dataclass
@@ -87,7 +87,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: floa
     output folder that does not load is learned again. One batch per output folder at a time."""
     out_dir = Path(out_dir)
     videos = find_videos(videos_dir)
-    clips = sorted(Path(content_dir).rglob("*.bvh"))
+    clips = find_bvh_files(content_dir)
     if not videos:
         raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
     if not clips:

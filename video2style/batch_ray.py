@@ -28,6 +28,7 @@ from video2style.batch import (
     write_index,
     write_report,
 )
+from video2style.pipeline import find_bvh_files
 
 
 def _worker() -> str:
@@ -100,7 +101,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
 
     out_dir = Path(out_dir)
     videos = find_videos(videos_dir)
-    clips = sorted(Path(content_dir).rglob("*.bvh"))
+    clips = find_bvh_files(content_dir)
     if not videos:
         raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
     if not clips:

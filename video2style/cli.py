@@ -206,10 +206,12 @@ def cmd_learn(args) -> None:
 def _bvh_inputs(paths: list[Path], out_dir: Path) -> list[tuple[Path, Path]]:
     """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``. Two
     clips that would write the same output are refused before any work."""
+    from video2style.pipeline import find_bvh_files
+
     files = []
     for p in paths:
         if p.is_dir():
-            files += [(q, out_dir / q.relative_to(p).parent) for q in sorted(p.rglob("*")) if q.suffix.lower() == ".bvh"]
+            files += [(q, out_dir / q.relative_to(p).parent) for q in find_bvh_files(p)]
         else:
             files.append((p, out_dir))
     if not files:

@@ -12,29 +12,33 @@ SAMPLES = Path(__file__).resolve().parent / "samples"  # package data: there aft
 
 
 def sample_clips() -> list[Path]:
-    clips = sorted(SAMPLES.glob("*.bvh"))
+    from video2style.pipeline import find_bvh_files
+
+    clips = find_bvh_files(SAMPLES, recursive=False)
     if not clips:
         raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python video2style/samples/make_samples.py)")
     return clips
 
 
-def run_demo(out_dir: Path, say=print, samples: Path = SAMPLES):
+def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
     """Runs pose and batch on ``samples``; returns the batch report (see :mod:`video2style.batch`)."""
     from video2style.batch import find_videos, run_batch
     from video2style.pose import pose_file
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    clips, videos = sorted(Path(samples).glob("*.bvh")), find_videos(samples)
+    from video2style.pipeline import find_bvh_files
+
+    clips, videos = find_bvh_files(samples, recursive=False), find_videos(samples)
     if not clips or not videos:
         raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python video2style/samples/make_samples.py)")
-    say(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
+    progress(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
         f"{len(clips)} clip(s) ({', '.join(c.name for c in clips)})")
     for video in videos:
         info = pose_file(video, out_dir / "pose" / f"{video.stem}.bvh", out_dir / "pose" / f"{video.stem}_pose.mp4", progress=False)
-        say(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames, {info['fps']:.0f} frames/s), "
+        progress(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames, {info['fps']:.0f} frames/s), "
             f"preview {info['preview']}")
-    report = run_batch(samples, samples, out_dir, 0.5, progress=say)
-    say(report.table())
-    say(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")
+    report = run_batch(samples, samples, out_dir, 0.5, progress=progress)
+    progress(report.table())
+    progress(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")
     return report

@@ -73,7 +73,7 @@ class OnTheFly:
         self.learn_seconds: list[float] = []
         self.iterations: list[int] = []
         self._seen: set[str] = set()  # styles this variant used (for its row's learning numbers)
-        self.say = progress or (lambda s: None)
+        self.progress = progress or (lambda s: None)
 
     def _model(self, style: torch.Tensor, style_label: str):
         from transfer.apply import read_motion
@@ -93,7 +93,7 @@ class OnTheFly:
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
-            self.say(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
+            self.progress(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
         model, seconds, iterations = self.shared[key]
         if key not in self._seen:
@@ -126,7 +126,7 @@ class OnTheFly:
         return apply_style_features(model, self.m.prior, self._neutral(content), config, step, self.seed)
 
 
-def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, stgcn_weights: Path | None = None,
+def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, stgcn_weights: Path | None = None,
                   strengths: list[float] | None = None, iterations: int | None = None,
                   style_cache: Path | None = None) -> tuple[dict, dict]:
     """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
@@ -160,7 +160,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, st
                 config = replace(config, iterations=iterations)
             for strength in strengths or [None]:
                 row = name if strength is None else f"{name} @{strength:g}"
-                learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: say(f"  {n}: {s}"),
+                learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
                                    strength=strength, shared=shared, store=style_cache)
                 learners[row] = learner
                 methods[row] = cleaned(learner, test.mean, test.std)
@@ -168,7 +168,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, say=print, st
 
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
-             examples_pool: int | None = None, say=print, stgcn_weights: Path | None = None,
+             examples_pool: int | None = None, progress=print, stgcn_weights: Path | None = None,
              split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
              style_cache: Path | None = None) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines."""
@@ -183,7 +183,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
-    fns, learners = build_methods(names, data_dir, seed, say, stgcn_weights, strengths, iterations, style_cache)
+    fns, learners = build_methods(names, data_dir, seed, progress, stgcn_weights, strengths, iterations, style_cache)
     rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split)
     for row in rows:
         learner = learners.get(row["method"])

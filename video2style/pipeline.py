@@ -18,6 +18,7 @@ from transfer.shipped import SHIPPED as WEIGHTS  # noqa: F401 - the shipped fold
 from transfer.shipped import weights_path
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
+BVH_SUFFIX = ".bvh"
 MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
 
 
@@ -73,6 +74,13 @@ def warp_clip(clip: Clip, tempo: float) -> Clip:
         return clip
     source = None if clip.source is None else time_warp(clip.source, tempo)
     return Clip(clip.path, time_warp(clip.canonical, tempo), clip.rig, clip.layout, source)
+
+
+def find_bvh_files(folder: Path, recursive: bool = True) -> list[Path]:
+    """The BVH files in ``folder`` (its subfolders too, unless ``recursive`` is False), any case of ``.bvh``,
+    sorted: the one way every command finds its clips."""
+    found = Path(folder).rglob("*") if recursive else Path(folder).glob("*")
+    return sorted(p for p in found if p.suffix.lower() == BVH_SUFFIX and p.is_file())
 
 
 def read_clip(path: Path, joint_map: dict | None = None, progress=None,
