@@ -121,6 +121,18 @@ def read_motion(motion_encoder, text_encoder, x: torch.Tensor) -> Reading:
 WINDOW_BATCH = 64  # windows denoised together: bounds memory on long clips (a 2-hour take is ~2,000 windows)
 
 
+def neutral_caption(motion_encoder, text_encoder, x: torch.Tensor, mode: str = "auto") -> tuple[Reading, torch.Tensor | None]:
+    """The one decision "redraw this clip neutral before styling it?": the :class:`Reading` of normalised
+    content ``x (T, D)`` and, when :meth:`Reading.should_neutralize` says so, the embedding ``(1, E)`` of the
+    neutral caption of what it reads (else None)."""
+    from transfer.captions import content_caption
+
+    reading = read_motion(motion_encoder, text_encoder, x)
+    if not reading.should_neutralize(mode):
+        return reading, None
+    return reading, text_encoder.encode([content_caption(reading.content)])
+
+
 def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], torch.Tensor]:
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")

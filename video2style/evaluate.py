@@ -103,16 +103,14 @@ class OnTheFly:
         return model
 
     def _neutral(self, content: torch.Tensor) -> torch.Tensor:
-        from transfer.apply import neutralize_features, read_motion
-        from transfer.captions import content_caption
+        from transfer.apply import neutral_caption, neutralize_features
 
         pair_config = {k: getattr(self.config, k) for k in ("neutralize_step", "pair_step", "pair_steps", "guidance")}
         key = "neutral" + _key(content, pair_config, self.seed)
         if key not in self.shared:  # each content clip goes to six styles: neutralise it once
-            reading = read_motion(self.m.motion_encoder, self.m.text_encoder, content)
-            skip = not reading.should_neutralize() or self.config.neutralize_step == 0
-            self.shared[key] = content if skip else neutralize_features(
-                self.m.prior, content, self.m.text_encoder.encode([content_caption(reading.content)]), self.config, self.seed)
+            _, text = neutral_caption(self.m.motion_encoder, self.m.text_encoder, content)
+            skip = text is None or self.config.neutralize_step == 0
+            self.shared[key] = content if skip else neutralize_features(self.m.prior, content, text, self.config, self.seed)
         return self.shared[key]
 
     def __call__(self, content, style, style_label, content_label):

@@ -251,8 +251,7 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
     """
     from dataclasses import replace
 
-    from transfer.apply import apply_style_motion, read_motion, strength_settings
-    from transfer.captions import content_caption
+    from transfer.apply import apply_style_motion, neutral_caption, strength_settings
 
     m = load_models()
     config = style_config(style)
@@ -260,10 +259,9 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
     config = replace(config, style_scale=scale)
     neutral_text, detected = None, None
     if neutralize != "never":
-        reading = read_motion(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std)
+        reading, neutral_text = neutral_caption(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std,
+                                                neutralize)
         detected = reading.describe()
-        if reading.should_neutralize(neutralize):
-            neutral_text = m.text_encoder.encode([content_caption(reading.content)])
     raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
     result, skating = clean_feet(raw, content)
     return result, {"detected": detected, "neutralized": neutral_text is not None, **skating}
