@@ -12,7 +12,7 @@ from transfer.apply import (
     window_starts,
 )
 from transfer.denoiser import Denoiser, DenoiserConfig
-from transfer.lora import LoRALinear, add_lora, lora_state, set_strength
+from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
 from transfer.style import Style, StyleConfig, style_model
 
 
@@ -46,7 +46,7 @@ def test_style_file_round_trip_and_strength(tmp_path):
     x = torch.randn(1, 12, FEATURES.dim)
     t = torch.tensor([100])
     assert not torch.allclose(again(x, t), prior(x, t))
-    set_strength(again, 0.0)
+    set_gain(again, 0.0)
     assert torch.allclose(again(x, t), prior(x, t), atol=1e-5)
 
 

@@ -18,10 +18,10 @@ class LoRALinear(nn.Module):
         self.lora_a = nn.Parameter(torch.empty(rank, base.in_features))
         self.lora_b = nn.Parameter(torch.zeros(base.out_features, rank))
         nn.init.kaiming_uniform_(self.lora_a, a=math.sqrt(5))
-        self.strength = 1.0
+        self.gain = 1.0  # multiplies the adapters' output (1: as learned, 0: the base model)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.base(x) + (self.strength * self.scale) * ((x @ self.lora_a.T) @ self.lora_b.T)
+        return self.base(x) + (self.gain * self.scale) * ((x @ self.lora_a.T) @ self.lora_b.T)
 
 
 TARGETS = ("q", "k", "v", "o", "ff1", "ff2")
@@ -63,7 +63,8 @@ def load_lora_state(model: nn.Module, tensors: dict[str, torch.Tensor]) -> None:
     model.load_state_dict(tensors, strict=False)
 
 
-def set_strength(model: nn.Module, strength: float) -> None:
+def set_gain(model: nn.Module, gain: float) -> None:
+    """Scale every adapter's output by ``gain`` (``apply --strength`` is another thing: how far the clip is noised)."""
     for m in model.modules():
         if isinstance(m, LoRALinear):
-            m.strength = strength
+            m.gain = gain

@@ -26,7 +26,7 @@ from tqdm import tqdm
 
 from motioncore.representation import FEATURES
 from transfer.captions import caption
-from transfer.lora import add_lora, load_lora_state, lora_state, set_strength
+from transfer.lora import add_lora, load_lora_state, lora_state, set_gain
 from transfer.sampling import denoise, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, StyleConfig
@@ -312,11 +312,11 @@ def _crop_mask(length: int, window: int) -> torch.Tensor:
     return valid
 
 
-def style_model(prior, style: Style, strength: float = 1.0):
+def style_model(prior, style: Style, gain: float = 1.0):
     """A copy of the prior with the style's adapters loaded (eval mode)."""
     rank = int(style.meta.get("rank", 8))
     model = copy.deepcopy(prior)
     add_lora(model, rank=rank)
     load_lora_state(model, style.adapters)
-    set_strength(model, strength)
+    set_gain(model, gain)
     return model.eval()

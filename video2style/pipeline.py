@@ -263,7 +263,7 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
                                                 neutralize)
         detected = reading.describe()
     raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
-    result, skating = clean_feet(raw, content)
+    result, skating = cleanup_feet_measured(raw, content)
     return result, {"detected": detected, "neutralized": neutral_text is not None, **skating}
 
 
@@ -312,7 +312,7 @@ def style_config(style):
     return StyleConfig(**style.meta.get("config", {}))
 
 
-def clean_feet(motion: Motion, content: Motion) -> tuple[Motion, dict]:
+def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
     """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
     from motioncore.cleanup import cleanup_feet
     from transfer.metrics import foot_skating_ratio

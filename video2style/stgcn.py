@@ -18,7 +18,7 @@ from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from video2style.pipeline import (
     Clip,
-    clean_feet,
+    cleanup_feet_measured,
     read_clip,
     weights_path,
     write_outputs,
@@ -98,7 +98,7 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
         feats = generate(model, x, code) * model.std + model.mean
         motion = decode_via_positions(feats, content.fps, **start)  # its position channels are the better ones
         if clean:
-            motion, ratios = clean_feet(motion, content)
+            motion, ratios = cleanup_feet_measured(motion, content)
             if skating is not None:
                 skating.append(ratios)
         out.append((motion, tag))
