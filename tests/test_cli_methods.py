@@ -7,7 +7,7 @@ import torch
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
-from transfer.denoiser import save_model
+from transfer.checkpoints import save_model
 from transfer.park.networks import ParkConfig, ParkModel
 from video2style.cli import main
 

@@ -6,9 +6,9 @@ import torch
 
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.checkpoints import save_model
 from transfer.classifiers import ClassifierConfig, MotionClassifier
 from transfer.dataset import ClipRecord, MotionDataset
-from transfer.denoiser import save_model
 from transfer.evaluation import (
     format_table,
     identity_transfer,

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from transfer.denoiser import save_model
+from transfer.checkpoints import save_model
 from transfer.park.infer import (
     code_from_noise,
     code_from_reference,

@@ -32,8 +32,8 @@ from torch.nn import functional as F
 
 from motioncore.representation import FEATURES
 from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.checkpoints import load_config, save_model
 from transfer.dataset import MotionDataset
-from transfer.denoiser import load_config, save_model
 from transfer.shipped import weights_dir
 from transfer.stgcn import (
     GRAPH_CHANNELS,

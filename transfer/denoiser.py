@@ -1,15 +1,15 @@
 """MDM-style denoiser: (noisy motion, step, text embedding) -> predicted clean motion x0."""
 from __future__ import annotations
 
-import json
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load_file
 from torch import nn
 
 from motioncore.representation import FEATURES
+from transfer.checkpoints import load_config
 from transfer.layers import Block, MotionEmbedding, sinusoidal
 
 
@@ -60,30 +60,6 @@ class Denoiser(nn.Module):
         for blk in self.blocks:
             h = blk(h, full_valid)
         return self.out(self.norm(h[:, 1:]))
-
-
-def save_model(model: nn.Module, config, path: Path, card: dict | None = None, extra: dict[str, torch.Tensor] | None = None) -> None:
-    """Weights to ``path`` (safetensors, config in its metadata) and an optional JSON model card beside it."""
-    from motioncore.files import atomic_output, atomic_write_text
-
-    path = Path(path)
-    tensors = {k: v.detach().contiguous() for k, v in model.state_dict().items()}
-    tensors.update(extra or {})
-    with atomic_output(path, ".tmp") as tmp:
-        save_file(tensors, str(tmp), metadata={"config": json.dumps(asdict(config)), "class": type(config).__name__})
-    if card is not None:
-        atomic_write_text(path.with_suffix(".json"), json.dumps(card, indent=1))
-
-
-def load_config(path: Path, cls):
-    """The dataclass config stored in a safetensors file's metadata (no unpickling)."""
-    from safetensors import safe_open
-
-    with safe_open(str(path), framework="pt") as f:
-        meta = f.metadata() or {}
-    if meta.get("class") != cls.__name__:
-        raise ValueError(f"{path}: expected a {cls.__name__} checkpoint, got {meta.get('class')!r}")
-    return cls(**json.loads(meta["config"]))
 
 
 def load_denoiser(path: Path) -> tuple[Denoiser, dict[str, torch.Tensor]]:

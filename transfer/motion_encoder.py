@@ -19,8 +19,8 @@ from torch import nn
 from torch.nn import functional as F
 
 from motioncore.representation import FEATURES
+from transfer.checkpoints import load_config, save_model
 from transfer.dataset import MotionDataset
-from transfer.denoiser import load_config, save_model
 from transfer.layers import Block, MotionEmbedding
 from transfer.prior import caption_embeddings, load_prior
 from transfer.scheduler import DiffusionScheduler

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import torch
 
+from transfer.checkpoints import save_model
 from transfer.dataset import MotionDataset
-from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser, save_model
+from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
 from transfer.scheduler import DiffusionScheduler
 from transfer.text_encoder import default_text_encoder
 from transfer.training import Trainer

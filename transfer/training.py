@@ -20,27 +20,7 @@ from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
 from motioncore.files import atomic_output
-
-
-def _optimizer_tensors(opt: torch.optim.Optimizer, names: dict[int, str]) -> dict[str, torch.Tensor]:
-    out = {}
-    for group in opt.param_groups:
-        for p in group["params"]:
-            for k, v in opt.state.get(p, {}).items():
-                if torch.is_tensor(v):
-                    out[f"opt.{names[id(p)]}.{k}"] = v.detach().clone().reshape(v.shape or (1,)).contiguous()
-    return out
-
-
-def _load_optimizer(opt: torch.optim.Optimizer, names: dict[int, str], tensors: dict[str, torch.Tensor]) -> None:
-    for group in opt.param_groups:
-        for p in group["params"]:
-            prefix = f"opt.{names[id(p)]}."
-            state = {k[len(prefix):]: v for k, v in tensors.items() if k.startswith(prefix)}
-            if state:
-                if "step" in state:
-                    state["step"] = state["step"].reshape(())
-                opt.state[p] = state
+from transfer.checkpoints import load_optimizer, optimizer_tensors
 
 
 class Trainer:
@@ -69,7 +49,7 @@ class Trainer:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         tensors = {f"model.{k}": v.detach().contiguous() for k, v in self.model.state_dict().items()}
         tensors.update({f"ema.{k}": v.detach().contiguous() for k, v in self.ema.state_dict().items()})
-        tensors.update(_optimizer_tensors(self.opt, self.names))
+        tensors.update(optimizer_tensors(self.opt, self.names))
         meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
         with atomic_output(self.checkpoint_path, ".tmp") as tmp:
             save_file(tensors, str(tmp), metadata=meta)
@@ -88,7 +68,7 @@ class Trainer:
         tensors = load_file(str(self.checkpoint_path))
         self.model.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")})
         self.ema.load_state_dict({k[4:]: v for k, v in tensors.items() if k.startswith("ema.")})
-        _load_optimizer(self.opt, self.names, tensors)
+        load_optimizer(self.opt, self.names, tensors)
         self.step = int(meta["step"])
         self.elapsed = float(meta.get("elapsed", 0))
         return True

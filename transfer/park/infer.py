@@ -16,7 +16,7 @@ import torch
 from safetensors.torch import load_file
 
 from motioncore.representation import FEATURES, decode_positions
-from transfer.denoiser import load_config
+from transfer.checkpoints import load_config
 from transfer.park.networks import ParkConfig, ParkModel
 
 ROOT_SLICES = (FEATURES.root_rvel, FEATURES.root_lvel)

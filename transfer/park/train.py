@@ -26,13 +26,12 @@ from tqdm import tqdm
 
 from motioncore.files import atomic_output
 from motioncore.representation import FEATURES
+from transfer.checkpoints import load_optimizer, optimizer_tensors, save_model
 from transfer.classifiers import labelled_clips
 from transfer.dataset import MotionDataset
-from transfer.denoiser import save_model
 from transfer.park.losses import LossWeights, d_loss, g_loss
 from transfer.park.networks import Discriminator, ParkConfig, ParkModel, he_init
 from transfer.shipped import weights_dir
-from transfer.training import _load_optimizer, _optimizer_tensors
 
 
 def default_weights() -> Path:
@@ -129,7 +128,7 @@ class ParkTraining:
         t.update({f"ema.{k}": v.detach().contiguous() for k, v in self.ema.state_dict().items()})
         t.update({f"disc.{k}": v.detach().contiguous() for k, v in self.disc.state_dict().items()})
         for name, opt in self.opts.items():
-            t.update({f"{name}.{k}": v for k, v in _optimizer_tensors(opt, self.names).items()})
+            t.update({f"{name}.{k}": v for k, v in optimizer_tensors(opt, self.names).items()})
         meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
         with atomic_output(self.checkpoint_path, ".tmp") as tmp:
             save_file(t, str(tmp), metadata=meta)
@@ -149,7 +148,7 @@ class ParkTraining:
         for prefix, mod in (("model.", self.model), ("ema.", self.ema), ("disc.", self.disc)):
             mod.load_state_dict({k[len(prefix):]: v for k, v in t.items() if k.startswith(prefix)})
         for name, opt in self.opts.items():
-            _load_optimizer(opt, self.names, {k[len(name) + 1:]: v for k, v in t.items() if k.startswith(f"{name}.opt.")})
+            load_optimizer(opt, self.names, {k[len(name) + 1:]: v for k, v in t.items() if k.startswith(f"{name}.opt.")})
         self.step, self.elapsed = int(meta["step"]), float(meta.get("elapsed", 0))
         return True
 
