@@ -23,7 +23,7 @@ from lifting.blazepose.tracker import PoseTracker
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.fit import DEFAULT_FOV_DEG
 from lifting.pipeline import LiftResult, Progress, _Reporter, lift_video
-from lifting.video import iter_frames
+from lifting.video import iter_frames, prefetched
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.files import publish
 from motioncore.render import Panel, check_video, render_frame
@@ -119,44 +119,14 @@ def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool)
         cv2.circle(img, tuple(map(int, p[k])), int((thick + 1) * 16), (255, 255, 255), -1, cv2.LINE_AA, 4)
 
 
-def _prefetch(video: Path, n: int, depth: int = 4, first: int = 0):
-    """``(index - first, frame)`` of ``n`` frames from frame ``first`` on, decoded one at a time by a helper
-    thread (OpenCV releases the GIL while decoding, so decoding overlaps the drawing); at most
-    ``depth`` frames wait in memory."""
-    frames: queue.Queue = queue.Queue(maxsize=depth)
-    stop = threading.Event()
-    done = object()
-
-    def reader() -> None:
-        try:
-            for i, _, frame in iter_frames(video):
-                if i < first:
-                    continue
-                if i - first >= n or stop.is_set():
-                    break
-                frames.put((i - first, frame))
-        except Exception as exc:  # noqa: BLE001 - re-raised in the consumer
-            frames.put(exc)
-            return
-        frames.put(done)
-
-    thread = threading.Thread(target=reader, name="preview-decoder", daemon=True)
-    thread.start()
-    try:
-        while True:
-            item = frames.get()
-            if item is done:
-                return
-            if isinstance(item, BaseException):
-                raise item
-            yield item
-    finally:
-        stop.set()
-        while thread.is_alive():  # unblock a reader waiting on a full queue
-            try:
-                frames.get_nowait()
-            except queue.Empty:
-                thread.join(0.01)
+def _frames(video: Path, n: int, first: int = 0):
+    """``(index - first, frame)`` of ``n`` frames from frame ``first`` on."""
+    for i, _, frame in iter_frames(video):
+        if i < first:
+            continue
+        if i - first >= n:
+            break
+        yield i - first, frame
 
 
 class _Writer:
@@ -214,7 +184,7 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
         writer = _Writer(tmp, float(tr.fps), size)
         first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)
         written = 0
-        for i, frame in _prefetch(video, n, first=first):
+        for i, frame in prefetched(_frames(video, n, first)):  # decoding overlaps the drawing
             left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
             inside = lifted.start <= i < lifted.stop
             if np.isfinite(tr.image[i]).all():
