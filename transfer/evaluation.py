@@ -235,26 +235,3 @@ def format_table(rows: Sequence[dict]) -> str:
                      f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
                      f"{num(r.get('sec_per_transfer'), '.4f')} |")
     return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> None:
-    """``python -m transfer.evaluation [--full]``: the identity baseline's table."""
-    import argparse
-    import json
-
-    ap = argparse.ArgumentParser(description="Bandai-2 style transfer protocol (Hu et al. 2024 §4.2) for the identity baseline")
-    ap.add_argument("--data", type=Path, default=Path("cache/dataset"))
-    ap.add_argument("--full", action="store_true", help="all 3780 transfers (default: the quick 120)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", type=Path, help="also write the rows here")
-    args = ap.parse_args(argv)
-    t0 = time.time()
-    rows = run_protocol({"identity": identity_transfer}, args.data, quick=not args.full, seed=args.seed)
-    print(format_table(rows))
-    print(f"\n{time.time() - t0:.1f} s in all")
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
-
-
-if __name__ == "__main__":
-    main()
