@@ -44,6 +44,13 @@ def overwrite(x: torch.Tensor, reference: torch.Tensor, slices: list[slice]) -> 
     return x
 
 
+def noise_keeping(scheduler, x: torch.Tensor, noise: torch.Tensor, k, keep: list[slice]) -> torch.Tensor:
+    """``x (*, T, D)`` noised to step ``k`` with ``noise``, except the feature slices ``keep`` (e.g. the root
+    path), which are only scaled as the noise schedule scales a clean signal: what learning and applying a
+    style start from."""
+    return overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alphas_cumprod[k].sqrt(), keep)
+
+
 @torch.no_grad()
 def generate(model, scheduler: DiffusionScheduler, text: torch.Tensor, length: int, num_steps: int = 50,
              guidance: float = 2.5, generator: torch.Generator | None = None) -> torch.Tensor:

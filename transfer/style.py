@@ -27,7 +27,7 @@ from tqdm import tqdm
 from motioncore.representation import FEATURES
 from transfer.captions import caption
 from transfer.lora import add_lora, load_lora_state, lora_state, set_gain
-from transfer.sampling import denoise, overwrite
+from transfer.sampling import denoise, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, StyleConfig
 
@@ -99,7 +99,7 @@ def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torc
     g = config.pair_step if step is None else step
     n_steps = max(1, round(config.pair_steps * g / config.pair_step))
     noise = torch.randn(x.shape, generator=generator)
-    x_g = overwrite(scheduler.add_noise(x, noise, g), x * scheduler.alphas_cumprod[g].sqrt(), TRAJECTORY)
+    x_g = noise_keeping(scheduler, x, noise, g, TRAJECTORY)
     return denoise(prior, scheduler, x_g, g, n_steps, text, guidance=config.guidance,
                    inpaint=(x, TRAJECTORY), generator=generator)
 
@@ -131,7 +131,7 @@ def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, config: Style
     k = config.transfer_step if step is None else step
     scale = config.style_scale
     noise = torch.randn(x.shape, generator=generator)
-    y = overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alphas_cumprod[k].sqrt(), TRAJECTORY)
+    y = noise_keeping(scheduler, x, noise, k, TRAJECTORY)
     n_steps = max(1, round(config.transfer_steps * k / config.transfer_step))
     if config.apply_mode == "difference":
         if prior is None:
@@ -222,8 +222,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
             xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx])
             valid = torch.stack([_crop_mask(dataset.records[i].length, config.window) for i in idx])
             t = steps[int(torch.randint(len(steps), (1,), generator=gen))]
-            y_c = overwrite(scheduler.add_noise(xs, torch.randn(xs.shape, generator=gen), t),
-                            xs * scheduler.alphas_cumprod[t].sqrt(), TRAJECTORY)
+            y_c = noise_keeping(scheduler, xs, torch.randn(xs.shape, generator=gen), t, TRAJECTORY)
             x0_c = overwrite(model(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
             z = motion_encoder(x0_c * valid[..., None], valid)
             target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
@@ -283,8 +282,7 @@ def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor,
     """
     k = config.transfer_step
     steps = scheduler.set_timesteps(config.transfer_steps, k).tolist()
-    y = overwrite(scheduler.add_noise(m_n, torch.randn(m_n.shape, generator=generator), k),
-                  m_n * scheduler.alphas_cumprod[k].sqrt(), TRAJECTORY)
+    y = noise_keeping(scheduler, m_n, torch.randn(m_n.shape, generator=generator), k, TRAJECTORY)
     inputs = [y]
     training = model.training
     model.eval()
