@@ -7,13 +7,12 @@ from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from transfer.apply import (
     apply_style_features,
-    crossfade,
     strength_to_step,
-    window_starts,
 )
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
 from transfer.style import Style, StyleConfig, style_model
+from transfer.windows import crossfade, window_starts
 
 
 def tiny_denoiser(seed=0):

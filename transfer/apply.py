@@ -11,6 +11,7 @@ from motioncore.representation import FEATURES, decode, encode, facing_angle
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 from transfer.scheduler import DiffusionScheduler
 from transfer.style import StyleConfig, neutralize, stylize
+from transfer.windows import crossfade, window_starts
 
 MAX_STEP = 999
 
@@ -34,32 +35,6 @@ def strength_settings(strength: float, config: StyleConfig) -> tuple[int, float]
             raise ValueError(f"strength: expected a number in [0, 1], got {strength}")
         return config.transfer_step, 2.0 * strength * config.style_scale
     return strength_to_step(strength), config.style_scale
-
-
-def window_starts(n: int, window: int, overlap: int) -> list[int]:
-    """Starts of windows covering ``n`` frames; the last window ends at ``n``."""
-    if n <= window:
-        return [0]
-    hop = window - overlap
-    starts = list(range(0, n - window, hop))
-    return starts + [n - window]
-
-
-def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Tensor:
-    """Blend overlapping windows ``(L, D)`` into ``(n, D)`` with linear ramps over the overlaps."""
-    out = torch.zeros(n, chunks[0].shape[-1])
-    total = torch.zeros(n, 1)
-    prev_end = 0  # windows come in order of their starts
-    for chunk, s in zip(chunks, starts):
-        length = chunk.shape[0]
-        w = torch.ones(length)
-        if s > 0:  # ramp in over the overlap with the previous window
-            ramp = max(1, prev_end - s)
-            w[:ramp] = torch.linspace(0, 1, ramp + 2)[1:-1]
-        out[s:s + length] += chunk * w[:, None]
-        total[s:s + length] += w[:, None]
-        prev_end = max(prev_end, s + length)
-    return out / total.clamp_min(1e-6)
 
 
 # Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every

@@ -61,7 +61,7 @@ def code_from_reference(model: ParkModel, reference: torch.Tensor, domain: str) 
 @torch.no_grad()
 def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overlap: int | None = None) -> torch.Tensor:
     """``G(content, code)`` over windows (overlap default: a quarter window) with crossfades; the content's root velocities are kept. -> ``(T, D)``."""
-    from transfer.apply import crossfade, window_starts
+    from transfer.windows import crossfade, window_starts
 
     if content.ndim != 2 or content.shape[1] != model.config.feature_dim:
         raise ValueError(f"content: expected (T, {model.config.feature_dim}), got {tuple(content.shape)}")
