@@ -74,7 +74,7 @@ def accuracy(args) -> None:
 
     torch.set_num_threads(1)
     from lifting.blazepose.tracker import PoseTracker
-    from lifting.pipeline import lift_track, track
+    from lifting.lift import lift_track, track
     from lifting.render_humanoid import frame_camera, write_humanoid_video
     from motioncore.motion import resample
     from motioncore.representation import decode

@@ -31,7 +31,7 @@ def main() -> None:
     from transfer.captions import BANDAI2_CONTENTS
     from transfer.dataset import MotionDataset
     from transfer.park.infer import pairwise_diversity, stylize_noise
-    from video2style.stgcn import load_stylizer
+    from video2style.park_apply import load_stylizer
 
     model = load_stylizer(args.weights)
     data = MotionDataset(args.data, "test")

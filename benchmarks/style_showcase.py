@@ -91,7 +91,7 @@ def main() -> None:
         return style, style_model(m.prior, style)
 
     def reads(motions) -> list[str]:
-        feats = [clf.normalize(encode(x)) for x in motions]
+        feats = [clf.standardize(encode(x)) for x in motions]
         return [clf.config.classes[i] for i in run_batched(clf, feats, "logits").argmax(-1).tolist()]
 
     report: dict = {}

@@ -56,8 +56,8 @@ def main() -> None:
         model = style_model(m.prior, style)
         raw = [apply_style_features(model, m.prior, x, config, config.transfer_step) * m.std + m.mean for x in xs]
         with torch.no_grad():
-            pred = [content_clf.config.classes[int(content_clf(content_clf.normalize(r)[None]).argmax())] for r in raw]
-            probs = [torch.softmax(style_clf(style_clf.normalize(r)[None]), -1)[0] for r in raw]
+            pred = [content_clf.config.classes[int(content_clf(content_clf.standardize(r)[None]).argmax())] for r in raw]
+            probs = [torch.softmax(style_clf(style_clf.standardize(r)[None]), -1)[0] for r in raw]
         cra = sum(p == c for p, c in zip(pred, contents)) / len(clips)
         sra = sum(int(p.argmax()) == target for p in probs) / len(clips)
         mean_p = sum(float(p[target]) for p in probs) / len(clips)

@@ -79,5 +79,5 @@ def test_committed_weights(target, minimum):
         pytest.skip("needs the real dataset cache for the accuracy check")
     data, idx, labels = labelled_clips(REAL_CACHE, "test", target, originals_only=True)
     idx, labels = idx[::6], labels[::6]  # a sixth of the test originals (70 clips) keeps this fast
-    acc = recognition_accuracy(model, [model.normalize(data.clip(i, normalized=False)) for i in idx], labels)
+    acc = recognition_accuracy(model, [model.standardize(data.clip(i, normalized=False)) for i in idx], labels)
     assert acc >= minimum - 0.05

@@ -84,7 +84,7 @@ def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, mon
     from tests.synthetic_cache import write_synthetic_cache
     from tests.test_evaluation import _random_classifier
     from transfer.captions import BANDAI2_CONTENTS, STYLES
-    from video2style import stgcn
+    from video2style import park_apply as stgcn
     from video2style.evaluate import evaluate
 
     cache = write_synthetic_cache(tmp_path / "cache")
@@ -115,7 +115,7 @@ def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
 
 
 def test_garbage_park_weights_are_one_line(tmp_path, clip, capsys):
-    from video2style import stgcn
+    from video2style import park_apply as stgcn
 
     bad = tmp_path / "garbage.safetensors"
     bad.write_bytes(b"\x08\x00\x00\x00\x00\x00\x00\x00{}garbage")

@@ -56,7 +56,7 @@ def test_build_dataset_from_archive(tmp_path):
     ds = MotionDataset(tmp_path / "cache", "train")
     x, valid, _idx = ds.sample_windows(5, 40, torch.Generator().manual_seed(0))
     assert x.shape == (5, 40, FEATURES.dim) and valid[:, :30].all() and not valid[:, 30:].any()
-    assert abs(float(ds.normalize(ds.features).mean())) < 0.5
+    assert abs(float(ds.standardize(ds.features).mean())) < 0.5
 
 
 def test_split_is_reproducible(tmp_path):

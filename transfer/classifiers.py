@@ -90,7 +90,7 @@ class MotionClassifier(nn.Module):
     def feature_size(self) -> int:
         return self.config.channels[-1]
 
-    def normalize(self, raw: torch.Tensor) -> torch.Tensor:
+    def standardize(self, raw: torch.Tensor) -> torch.Tensor:
         return (raw - self.mean) / self.std
 
     def features(self, x: torch.Tensor, valid: torch.Tensor | None = None) -> torch.Tensor:
@@ -212,14 +212,14 @@ def _sample_batch(data: MotionDataset, by_class: list[list[int]], n: int, window
         r = data.records[members[int(torch.randint(len(members), (1,), generator=gen))]]
         length = min(window, r.length)
         s = int(torch.randint(r.length - length + 1, (1,), generator=gen))
-        x[b, :length] = data.normalize(data.features[r.start + s:r.start + s + length])
+        x[b, :length] = data.standardize(data.features[r.start + s:r.start + s + length])
         valid[b, :length] = True
     return x, valid, y
 
 
 def evaluate_clips(model: MotionClassifier, data: MotionDataset, idx: list[int], labels: list[int]) -> dict:
     """Accuracy and confusion matrix (rows = true class, columns = predicted) on whole clips."""
-    clips = [model.normalize(data.clip(i, normalized=False)) for i in idx]
+    clips = [model.standardize(data.clip(i, normalized=False)) for i in idx]
     pred = run_batched(model, clips).argmax(-1)
     y = torch.tensor(labels)
     k = len(model.config.classes)

@@ -169,7 +169,7 @@ class MotionDataset:
         x = self.features[r.start:r.start + r.length]
         return (x - self.mean) / self.std if normalized else x
 
-    def normalize(self, x: torch.Tensor) -> torch.Tensor:
+    def standardize(self, x: torch.Tensor) -> torch.Tensor:
         return (x - self.mean) / self.std
 
     def denormalize(self, x: torch.Tensor) -> torch.Tensor:
@@ -187,6 +187,6 @@ class MotionDataset:
             r = self.records[i]
             length = min(window, r.length)
             s = int(torch.randint(r.length - length + 1, (1,), generator=generator))
-            x[b, :length] = self.normalize(self.features[r.start + s:r.start + s + length])
+            x[b, :length] = self.standardize(self.features[r.start + s:r.start + s + length])
             valid[b, :length] = True
         return x, valid, idx

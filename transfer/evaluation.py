@@ -143,9 +143,9 @@ class _Scorer:
 
     @torch.no_grad()
     def score(self, raw: list[torch.Tensor], contents: list[str], styles: list[str]) -> dict:
-        feats = run_batched(self.content_clf, [self.content_clf.normalize(x) for x in raw], "features")
+        feats = run_batched(self.content_clf, [self.content_clf.standardize(x) for x in raw], "features")
         content_pred = self.content_clf.eval().head(feats).argmax(-1)  # = recognition_accuracy, one pass fewer
-        style_feats = run_batched(self.style_clf, [self.style_clf.normalize(x) for x in raw], "features")
+        style_feats = run_batched(self.style_clf, [self.style_clf.standardize(x) for x in raw], "features")
         style_pred = self.style_clf.eval().head(style_feats).argmax(-1)
         return {
             "features": feats,

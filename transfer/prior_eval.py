@@ -94,7 +94,7 @@ def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset,
         from transfer.classifiers import run_batched
 
         def feats(xs):
-            return run_batched(classifier, [classifier.normalize(x * std + mean) for x in xs], "features")
+            return run_batched(classifier, [classifier.standardize(x * std + mean) for x in xs], "features")
 
         out["fd_classifier_features"] = frechet_distance(feats(samples), feats(real))
     if out_dir is not None:

@@ -291,7 +291,7 @@ def _check_strength(strength: float) -> None:
 
 
 def _stgcn_runner(args, joint_map):
-    from video2style.stgcn import StgcnRequest, apply_stgcn_file, load_stylizer
+    from video2style.park_apply import StgcnRequest, apply_stgcn_file, load_stylizer
 
     if args.domain is None:
         raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")

@@ -144,7 +144,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
             methods[name] = identity_transfer
         elif name in ("stgcn", "stgcn-raw"):
             from transfer.park.infer import park_method
-            from video2style.stgcn import load_stylizer
+            from video2style.park_apply import load_stylizer
 
             method = park_method(load_stylizer(stgcn_weights), seed)
             methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std, from_positions=True)

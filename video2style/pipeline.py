@@ -93,7 +93,7 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
     if path.suffix.lower() in VIDEO_SUFFIXES:
-        from lifting.pipeline import video_to_motion
+        from lifting.lift import video_to_motion
 
         canon = video_to_motion(path, progress=progress, span=span)
         return Clip(path, resample(canon, CANONICAL.fps))

@@ -1,7 +1,7 @@
 """``video2style pose``: a video of one person -> a BVH on the canonical skeleton (+ a preview).
 
 The BVH keeps the video's frame rate and covers the frames where the person was tracked
-(see :mod:`lifting.pipeline`). The preview shows each video frame with the BlazePose
+(see :mod:`lifting.lift`). The preview shows each video frame with the BlazePose
 landmarks drawn on it beside the fitted 3-D skeleton; its frames are decoded again one at a
 time, never held in memory. Both files are written to temporary names and renamed at the
 end, so a failure leaves neither.
@@ -22,7 +22,7 @@ import numpy as np
 from lifting.blazepose.tracker import PoseTracker
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.fit import DEFAULT_FOV_DEG
-from lifting.pipeline import LiftResult, Progress, _Reporter, lift_video
+from lifting.lift import LiftResult, Progress, _Reporter, lift_video
 from lifting.video import iter_frames, prefetched
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.files import publish

@@ -1,4 +1,4 @@
-"""Video -> canonical motion -> BVH and preview (``lifting.pipeline``, ``video2style.pose``).
+"""Video -> canonical motion -> BVH and preview (``lifting.lift``, ``video2style.pose``).
 
 Bad inputs that fail before any model is needed run everywhere; the rest needs the BlazePose
 models (skipped cleanly without them, like the other tracker tests).
@@ -78,7 +78,7 @@ def test_zero_frames(tmp_path):
 
 
 def test_missing_file(tmp_path):
-    from lifting.pipeline import video_to_motion
+    from lifting.lift import video_to_motion
 
     with pytest.raises(ValueError, match="not found.*nope.mp4"):
         video_to_motion(tmp_path / "nope.mp4")
@@ -131,7 +131,7 @@ def test_pose_file_writes_bvh_and_preview(rendered, tracker, tmp_path):
 
 
 def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
-    from lifting.pipeline import lift_video, video_to_motion
+    from lifting.lift import lift_video, video_to_motion
 
     video, truth = rendered
     lifted = lift_video(video, tracker=tracker)
@@ -150,7 +150,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert np.abs(pred[:, 0, [0, 2]]).max() < 0.3  # standing: the path stays near the start
     assert encode(motion).shape[0] == motion.num_frames  # the representation accepts it
     # The unfiltered lift of the same landmarks is jerkier.
-    from lifting.pipeline import lift_track
+    from lifting.lift import lift_track
 
     raw = lift_track(lifted.track, str(video), cutoff_hz=None).motion.global_positions().double().numpy()
     assert compare(raw, gt, 30.0)["jitter"] > m["jitter"]
@@ -194,7 +194,7 @@ def test_truncated_avi(tracker, tmp_path):
 
 
 def test_short_gaps_are_interpolated(rendered, tracker, tmp_path):
-    from lifting.pipeline import lift_track, track
+    from lifting.lift import lift_track, track
 
     video, truth = rendered
     result = track(video, tracker=tracker)

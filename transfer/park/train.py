@@ -92,7 +92,7 @@ class WindowSampler:
                 after = self.window - r.length - before
                 still = lambda f, n: f.clone().expand(n, -1).clone().index_fill_(1, _root_vel_index(), 0.0)
                 raw = torch.cat([still(clip[:1], before), clip, still(clip[-1:], after)])
-            out[b] = self.data.normalize(raw)
+            out[b] = self.data.standardize(raw)
         return out
 
 
