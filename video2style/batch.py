@@ -80,24 +80,39 @@ def folder_lock(out_dir: Path):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-              seed: int = 0, progress=print) -> BatchReport:
-    """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
-    (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
-    output folder that does not load is learned again. One batch per output folder at a time."""
-    out_dir = Path(out_dir)
+def plan(videos_dir: Path, content_dir: Path) -> tuple[list[Path], list[Path], dict[Path, str]]:
+    """``(videos, clips, name of each video's style and result folder)``; FileNotFoundError when either is empty."""
     videos = find_videos(videos_dir)
     clips = find_bvh_files(content_dir)
     if not videos:
         raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips")
+    return videos, clips, video_keys(videos)
+
+
+@contextmanager
+def batch_folder(out_dir: Path, progress):
+    """Hold the output folder's lock; temporary files of killed runs are swept on entry and on leaving."""
     with folder_lock(out_dir):
         stale = sweep_temp_files(out_dir)
-        if stale:
+        if stale and progress is not None:
             progress(f"removed {stale} temporary file(s) left by an interrupted run")
+        try:
+            yield
+        finally:
+            sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; all work is over now
+
+
+def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
+              seed: int = 0, progress=print) -> BatchReport:
+    """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
+    (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
+    output folder that does not load is learned again. One batch per output folder at a time."""
+    out_dir = Path(out_dir)
+    videos, clips, keys = plan(videos_dir, content_dir)
+    with batch_folder(out_dir, progress):
         report = BatchReport()
-        keys = video_keys(videos)
         for vi, video in enumerate(videos, 1):
             _one_video(video, keys[video], f"[video {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, strength,
                        learn_config, seed, progress, report)
@@ -128,7 +143,7 @@ def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress):
 def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
                learn_config, seed: int, progress, report: BatchReport) -> None:
     from transfer.style import style_model
-    from video2style.pipeline import apply_file, load_models
+    from video2style.pipeline import load_models
 
     t0 = time.time()
     try:
@@ -138,25 +153,39 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
         progress(f"    failed: {e}")
         return
     model = style_model(load_models().prior, style)
+    facts = _style_facts(style, strength)
     for ci, clip in enumerate(clips, 1):
-        where = out_dir / key / clip.relative_to(content_dir).parent  # subfolders kept: no two clips collide
-        out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
-        player = where / f"{clip.stem}_player.js"
-        if out_bvh.is_file() and preview.is_file():
-            report.add(video=video.name, clip=clip.name, status="skipped (done)", output=str(out_bvh), preview=str(preview),
-                       player=str(player) if player.is_file() else "", content=str(clip), style=_style_facts(style, strength))
-            continue
-        t1 = time.time()
+        row = apply_item(style, model, facts, video.name, clip, out_dir / key / clip.relative_to(content_dir).parent,
+                         strength, seed)
+        report.add(**row)
+        if row["status"] == "failed":
+            progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {row['error']}")
+        elif row["status"] == "done":
+            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {row['output']}")
+
+
+def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, strength: float, seed: int,
+               retries: int = 0) -> dict:
+    """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide): skipped
+    when its BVH and preview exist, else applied (tried ``retries`` more times on an error). The report row."""
+    from video2style.pipeline import apply_file
+
+    out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
+    player = where / f"{clip.stem}_player.js"
+    row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "output": str(out_bvh),
+           "preview": str(preview), "player": str(player) if player.is_file() else ""}
+    if out_bvh.is_file() and preview.is_file():
+        return {**row, "status": "skipped (done)", "seconds": 0.0, "attempts": 0}
+    t0, error = time.time(), None
+    for attempt in range(1, retries + 2):
         try:
             info = apply_file(style, model, clip, where, strength, seed)
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
-            report.add(video=video.name, clip=clip.name, status="failed", error=str(e), seconds=time.time() - t1)
-            progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {e}")
+            error = str(e)
             continue
-        report.add(video=video.name, clip=clip.name, status="done", seconds=time.time() - t1,
-                   output=info["output"], preview=info.get("preview", ""), player=info.get("player", ""),
-                   content=str(clip), style=_style_facts(style, strength))
-        progress(f"    [{ci}/{len(clips)}] {clip.name} -> {info['output']}")
+        return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
+                "preview": info.get("preview", ""), "player": info.get("player", "")}
+    return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1}
 
 
 def _style_facts(style, strength: float) -> str:

@@ -18,17 +18,14 @@ import time
 from pathlib import Path
 
 from video2style.batch import (
-    VIDEO_SUFFIXES,
     BatchReport,
     _style_facts,
-    find_videos,
-    folder_lock,
-    sweep_temp_files,
-    video_keys,
+    apply_item,
+    batch_folder,
+    plan,
     write_index,
     write_report,
 )
-from video2style.pipeline import find_bvh_files
 
 
 def _worker() -> str:
@@ -44,9 +41,8 @@ def _learn_job(video: str, style_path: str, learn_config, threads: int) -> dict:
     torch.set_num_threads(threads)
     t0 = time.time()
     try:
-        style = _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None)
-        return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker(),
-                "style_facts": style.meta}
+        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None)
+        return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker()}
     except Exception as e:  # noqa: BLE001 - reported as the video's failure
         return {"video": Path(video).name, "status": "failed", "error": f"learn: {e}", "seconds": time.time() - t0,
                 "worker": _worker()}
@@ -58,33 +54,14 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
     import torch
 
     from transfer.style import Style, style_model
-    from video2style.pipeline import apply_file, load_models
+    from video2style.pipeline import load_models
 
     torch.set_num_threads(threads)
     style = Style.load(Path(style_path))
     model = style_model(load_models().prior, style)
     facts = _style_facts(style, strength)
-    rows = []
-    for clip, where in items:
-        clip, where = Path(clip), Path(where)
-        out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
-        player = where / f"{clip.stem}_player.js"
-        row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "worker": _worker(),
-               "output": str(out_bvh), "preview": str(preview), "player": str(player)}
-        if out_bvh.is_file() and preview.is_file():
-            rows.append({**row, "status": "skipped (done)", "seconds": 0.0, "attempts": 0})
-            continue
-        t0, error = time.time(), None
-        for attempt in range(1, retries + 2):
-            try:
-                apply_file(style, model, clip, where, strength, seed)
-                error = None
-                break
-            except Exception as e:  # noqa: BLE001 - retried, then reported
-                error = str(e)
-        rows.append({**row, "status": "failed" if error else "done", "error": error, "seconds": time.time() - t0,
-                     "attempts": attempt})
-    return rows
+    return [{**apply_item(style, model, facts, video, Path(clip), Path(where), strength, seed, retries), "worker": _worker()}
+            for clip, where in items]
 
 
 def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
@@ -100,17 +77,8 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
     from tqdm import tqdm
 
     out_dir = Path(out_dir)
-    videos = find_videos(videos_dir)
-    clips = find_bvh_files(content_dir)
-    if not videos:
-        raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
-    if not clips:
-        raise FileNotFoundError(f"{content_dir}: no .bvh clips")
-    keys = video_keys(videos)
-    with folder_lock(out_dir):
-        stale = sweep_temp_files(out_dir)
-        if stale:
-            progress(f"removed {stale} temporary file(s) left by an interrupted run")
+    videos, clips, keys = plan(videos_dir, content_dir)
+    with batch_folder(out_dir, progress):
         started_here = not ray.is_initialized()
         if started_here:
             ray.init(address=address, num_cpus=workers if address is None else None, include_dashboard=False,
@@ -147,7 +115,6 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
         finally:
             if started_here:
                 ray.shutdown()
-        sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; every task is over now
         write_index(report, out_dir)
         write_report(report, out_dir)
     return report
