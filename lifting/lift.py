@@ -150,20 +150,7 @@ def track(path: str | Path, progress: Progress = None, tracker: PoseTracker | No
         raise ValueError(f"{path}: the video looks truncated: decoded {decoded} of the {expected} frames its header lists")
     if not frames:
         raise ValueError(f"{path}: --start/--end select no frames (the video is {decoded / fps:.2f} s long)")
-    return TrackResult(
-        world=np.stack([f.world for f in frames]),
-        image=np.stack([f.image for f in frames]),
-        visibility=np.stack([f.visibility for f in frames]),
-        presence=np.stack([f.presence for f in frames]),
-        score=np.array([f.score for f in frames]),
-        found=np.array([f.found for f in frames], dtype=bool),
-        times=np.array(times),
-        fps=fps,
-        width=width,
-        height=height,
-        detector_runs=sum(f.detected for f in frames),
-        rois=[f.roi for f in frames],
-    )
+    return TrackResult.stack(frames, times, fps, width, height)
 
 
 def usable_span(found: np.ndarray, fps: float, source: str, max_gap_s: float = MAX_GAP_S,

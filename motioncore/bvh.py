@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from motioncore import quat
-from motioncore.files import atomic_output, atomic_write_text  # noqa: F401 - atomic_write_text re-exported
+from motioncore.files import atomic_output
 from motioncore.motion import Motion
 from motioncore.skeleton import Skeleton
 
@@ -345,8 +345,7 @@ def _read_large(path: str, units: str | float) -> tuple[Motion, BvhLayout] | Non
         try:
             hierarchy = _parse_hierarchy(_Reader(path, text.removeprefix("\ufeff")))
             n_ch = sum(len(c) for c in hierarchy[3])
-            _, frame_time, n_frames, frame_time_text = _motion_block(path, text + " ".join(["0"] * n_ch) + "\n", n_ch,
-                                                                    declared_only=True)
+            _, frame_time, n_frames, frame_time_text = _motion_block(path, text, n_ch, declared_only=True)
         except BvhError:
             return None
         data = np.empty((n_frames, n_ch), dtype=np.float32)  # float32 like the motion: half the memory

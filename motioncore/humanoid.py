@@ -412,17 +412,13 @@ def _find(g: _Geometry, pose: str) -> HumanoidMap:
     up = axis_vector(up_name)
     roles: dict[str, int | None] = {"Hips": hips, "Chest": chest}
     how = {"Hips": "common parent of the legs", "Chest": "common parent of the arms"}
-    leg_roles = [_leg(g, hips, c, up, s) for c, s in ((legs.a, "first"), (legs.b, "second"))]
-    fwd = _forward(g, [r for r, _ in leg_roles], up)
+    fitted = {c: _leg(g, hips, c, up, f"{skeleton.names[c]!r}") for c in (legs.a, legs.b)}  # each leg once
+    fwd = _forward(g, [fitted[c][0] for c in (legs.a, legs.b)], up)
     left = None if fwd is None else torch.linalg.cross(up, axis_vector(_axis_name(fwd)))
-    order = {}
     for pair, what in ((legs, "leg"), (arms, "arm")):
         lc, rc, side_how = _sides(g, pair, left, what)
-        order[what] = (lc, rc, side_how)
-    for (lc, rc, side_how), builder in ((order["leg"], "leg"), (order["arm"], "arm")):
         for c, s in ((lc, "L"), (rc, "R")):
-            r, h = _leg(g, hips, c, up, "left" if s == "L" else "right") if builder == "leg" else \
-                _arm(g, chest, c, "left" if s == "L" else "right")
+            r, h = fitted[c] if what == "leg" else _arm(g, chest, c, "left" if s == "L" else "right")
             for k, v in r.items():
                 roles[f"{k}_{s}"] = v
                 how[f"{k}_{s}"] = f"{h[k]}; {side_how}"

@@ -7,10 +7,10 @@ import pytest
 import torch
 
 from motioncore.bvh import read_bvh
+from transfer.shipped import SHIPPED as WEIGHTS
 from transfer.style import Style, StyleConfig, style_model
 from video2style.demo import SAMPLES
 from video2style.pipeline import (
-    WEIGHTS,
     PartialStyleError,
     apply_file,
     learn_file,

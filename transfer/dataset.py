@@ -23,8 +23,8 @@ import torch
 from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
-from motioncore.bvh import BvhError, atomic_write_text, parse_bvh
-from motioncore.files import atomic_output
+from motioncore.bvh import BvhError, parse_bvh
+from motioncore.files import atomic_output, atomic_write_text
 from motioncore.motion import mirror, resample
 from motioncore.representation import FEATURES, encode
 from motioncore.retarget import make_rig, place_on_floor, to_canonical

@@ -10,7 +10,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from motioncore.bvh import atomic_write_text
+from motioncore.files import atomic_write_text
 from video2style.pipeline import VIDEO_SUFFIXES, find_bvh_files
 
 

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import torch
 
-from motioncore.bvh import atomic_write_text
 from motioncore.cleanup import cleanup_feet
+from motioncore.files import atomic_write_text
 from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
 from video2style.methods import METHODS, VARIANTS

@@ -13,7 +13,7 @@ import html
 import json
 from pathlib import Path
 
-from motioncore.bvh import atomic_write_text
+from motioncore.files import atomic_write_text
 from motioncore.motion import Motion
 
 MAX_SECONDS = 120.0  # as the mp4 preview

@@ -14,7 +14,8 @@ from pathlib import Path
 import torch
 
 from motioncore import quat
-from motioncore.bvh import BvhLayout, atomic_write_text, read_bvh
+from motioncore.bvh import BvhLayout, read_bvh
+from motioncore.files import atomic_write_text
 from motioncore.kinematics import fk, rest_positions
 from motioncore.motion import Motion
 from motioncore.retarget import Rig, make_rig

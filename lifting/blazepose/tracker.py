@@ -89,6 +89,24 @@ class TrackResult:
     detector_runs: int = 0
     rois: list = field(default_factory=list, repr=False)
 
+    @classmethod
+    def stack(cls, frames: list, times: list[float], fps: float, width: int, height: int) -> TrackResult:
+        """The per-frame :class:`PoseFrame` results of one video stacked into arrays."""
+        return cls(
+            world=np.stack([f.world for f in frames]),
+            image=np.stack([f.image for f in frames]),
+            visibility=np.stack([f.visibility for f in frames]),
+            presence=np.stack([f.presence for f in frames]),
+            score=np.array([f.score for f in frames]),
+            found=np.array([f.found for f in frames], dtype=bool),
+            times=np.array(times),
+            fps=fps,
+            width=width,
+            height=height,
+            detector_runs=sum(f.detected for f in frames),
+            rois=[f.roi for f in frames],
+        )
+
     @property
     def found_fraction(self) -> float:
         return float(self.found.mean()) if len(self.found) else 0.0
@@ -247,17 +265,4 @@ def track_video(
             bar.update(1)
     finally:
         bar.close()
-    return TrackResult(
-        world=np.stack([f.world for f in frames]),
-        image=np.stack([f.image for f in frames]),
-        visibility=np.stack([f.visibility for f in frames]),
-        presence=np.stack([f.presence for f in frames]),
-        score=np.array([f.score for f in frames]),
-        found=np.array([f.found for f in frames], dtype=bool),
-        times=np.array(times),
-        fps=fps,
-        width=width,
-        height=height,
-        detector_runs=sum(f.detected for f in frames),
-        rois=[f.roi for f in frames],
-    )
+    return TrackResult.stack(frames, times, fps, width, height)
