@@ -258,3 +258,16 @@ def test_a_frame_time_that_stretches_a_small_file_over_days_is_refused_before_re
     with pytest.raises(ValueError, match="hours long"):
         read_clip(clip)
     assert time.time() - t0 < 30
+
+
+def test_a_crafted_field_name_with_a_newline_still_gives_one_line(tmp_path):
+    """Found by the fuzz test on a fresh clone: an unknown config field named "\\n" split the error."""
+    from safetensors.torch import save_file
+
+    from transfer.style import Style
+
+    path = tmp_path / "f.v2s"
+    save_file({"blocks.0.ff2.lora_a": torch.ones(2)}, str(path), metadata={"video2style": json.dumps({"config": {"\n": 1}})})
+    with pytest.raises(ValueError) as e:
+        Style.load(path)
+    assert str(e.value).startswith(str(path)) and "\n" not in str(e.value) and "unknown field" in str(e.value)

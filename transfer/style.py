@@ -75,11 +75,11 @@ class Style:
         except FileNotFoundError:
             raise FileNotFoundError(f"{path}: no such style file") from None
         except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage (RecursionError included)
-            raise ValueError(f"{path}: not a video2style style file ({str(e)[:200]})") from None
+            raise ValueError(f"{path}: not a video2style style file ({' '.join(str(e).split())[:200]})") from None
         try:
             validate_style(meta, tensors)
         except ValueError as e:
-            raise ValueError(f"{path}: invalid style file: {e}") from None
+            raise ValueError(f"{path}: invalid style file: {' '.join(str(e).split())}") from None  # one line, always
         example = tensors.pop("example", None)
         return Style({k: v.float() for k, v in tensors.items()}, meta, example)
 

@@ -56,7 +56,7 @@ def validate_config(config) -> dict:
     if not isinstance(config, dict):
         raise ValueError(f"config: expected an object, got {type(config).__name__}")  # noqa: TRY004 - one-line CLI error
     known = {f.name for f in fields(StyleConfig)}
-    unknown = sorted(str(k)[:40] for k in config if k not in known)
+    unknown = sorted(repr(str(k)[:40]) for k in config if k not in known)  # repr: a crafted name stays one line
     if unknown:
         raise ValueError(f"config: unknown field(s) {', '.join(unknown[:5])}")
     for name, value in config.items():
