@@ -16,7 +16,8 @@ import time
 from pathlib import Path
 
 from lifting.blazepose.synthetic import write_walking_clip
-from lifting.blazepose.tracker import PoseTracker, track_video
+from lifting.blazepose.tracker import PoseTracker
+from lifting.lift import track
 from lifting.video import iter_frames, video_info
 
 
@@ -30,11 +31,11 @@ def decode_seconds(path: Path) -> float:
 def bench(path: Path, threads: int, repeats: int) -> None:
     fps, _, width, height = video_info(path)
     tracker = PoseTracker(num_threads=threads)
-    track_video(path, progress=False, tracker=tracker)  # warm-up (first-run allocations)
+    track(path, tracker=tracker)  # warm-up (first-run allocations)
     best = float("inf")
     for _ in range(repeats):
         start = time.perf_counter()
-        result = track_video(path, progress=False, tracker=tracker)
+        result = track(path, tracker=tracker)
         best = min(best, time.perf_counter() - start)
     n = len(result.found)
     decode = decode_seconds(path)

@@ -8,13 +8,16 @@ MediaPipe is never a dependency of video2style: it lives in its own folder, put 
 for its side of the comparison. Each side is a fresh process, timed from start to exit: ours
 reads the video, tracks, lifts, filters, fits the skeleton and writes the BVH; MediaPipe's reads
 the video and runs ``mp.solutions.pose.Pose(model_complexity=1)`` on every frame (landmarks only).
-Each command runs ``--repeats`` times; the best time counts.
+The two commands alternate ``--repeats`` times (so a busy spell hits both); each side's best time counts. Both run under this interpreter
+without wrappers: ours as the ``video2style`` console script beside ``sys.executable`` (a pyenv
+shim on PATH would add ~50 ms of shell to our side only), theirs as ``sys.executable -c``.
 """
 from __future__ import annotations
 
 import argparse
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -33,13 +36,10 @@ while True:
 """
 
 
-def best_of(cmd: list[str], repeats: int, env: dict | None = None) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
-        times.append(time.perf_counter() - t0)
-    return min(times)
+def run_seconds(cmd: list[str], env: dict | None = None) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    return time.perf_counter() - t0
 
 
 def main() -> None:
@@ -50,14 +50,19 @@ def main() -> None:
     args = ap.parse_args()
     import cv2
 
+    ours_cmd = Path(sys.executable).with_name("video2style")
+    if not ours_cmd.is_file():
+        ours_cmd = Path(shutil.which("video2style") or "video2style")
     env = dict(os.environ, PYTHONPATH=str(args.mediapipe), GLOG_minloglevel="3", TF_CPP_MIN_LOG_LEVEL="3")
     print(f"{'video':34s} {'frames':>6s} {'ours s':>7s} {'MediaPipe s':>11s} {'ours/MP':>8s}")
     ratios = []
     with tempfile.TemporaryDirectory() as tmp:
         for video in args.videos:
             frames = int(cv2.VideoCapture(str(video)).get(cv2.CAP_PROP_FRAME_COUNT))
-            ours = best_of(["video2style", "pose", str(video), "-o", str(Path(tmp) / "out.bvh"), "-q"], args.repeats)
-            theirs = best_of([sys.executable, "-c", MEDIAPIPE, str(video)], args.repeats, env)
+            ours_run = [str(ours_cmd), "pose", str(video), "-o", str(Path(tmp) / "out.bvh"), "-q"]
+            theirs_run = [sys.executable, "-c", MEDIAPIPE, str(video)]
+            pairs = [(run_seconds(ours_run), run_seconds(theirs_run, env)) for _ in range(args.repeats)]
+            ours, theirs = min(p[0] for p in pairs), min(p[1] for p in pairs)
             ratios.append(ours / theirs)
             print(f"{video.name:34s} {frames:6d} {ours:7.2f} {theirs:11.2f} {ours / theirs:8.2f}", flush=True)
     print(f"geometric mean ours/MediaPipe: {math.exp(sum(map(math.log, ratios)) / len(ratios)):.2f} "

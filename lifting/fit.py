@@ -2,8 +2,7 @@
 
 Frames: BlazePose *world* landmarks come hip-centred in a Y-up frame aligned with the camera
 (x right, y up, z toward the camera), so a person facing the camera faces +Z with their left
-at +X, as the canonical skeleton does. The pinhole camera here is OpenCV-like (x right,
-y down, z forward); :func:`solve_translation` returns the translation in the Y-up frame.
+at +X, as the canonical skeleton does. The pinhole camera is in :mod:`lifting.camera`.
 """
 
 from __future__ import annotations
@@ -19,7 +18,8 @@ from motioncore import quat
 from motioncore.kinematics import rest_positions
 from motioncore.skeleton import CANONICAL
 
-DEFAULT_FOV_DEG = 60.0  # assumed field of view across the longer image side
+_IDENTITY = torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=torch.float64)
+_Y_UP = torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)
 HEAD_PITCH_DEG = 15.0  # the nose sits below the ear line: forward = nose - ears, tilted up by this
 
 _L = {n: i for i, n in enumerate(POSE_LANDMARKS)}
@@ -44,13 +44,6 @@ ANCHORS = {_SK.index("Chest"): [_SK.index(n) for n in ("Neck", "UpperArm_L", "Up
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
-def focal_length(width: int, height: int, fov_deg: float = DEFAULT_FOV_DEG) -> float:
-    """Focal length in pixels for a field of view ``fov_deg`` across the longer image side."""
-    if not 1.0 < fov_deg < 179.0:
-        raise ValueError(f"expected a field of view in (1, 179) degrees, got {fov_deg}")
-    return 0.5 * max(width, height) / math.tan(math.radians(fov_deg) / 2)
 
 
 def _frame(across: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -103,8 +96,8 @@ def landmarks_to_joints(world: np.ndarray) -> np.ndarray:
     return out
 
 
-def head_rotation(world: np.ndarray, pitch_deg: float = HEAD_PITCH_DEG) -> np.ndarray:
-    """Global head rotation ``(T, 4)`` wxyz from ears and nose: +X toward the left ear, +Z the face's
+def head_rotation(world: np.ndarray, pitch_deg: float = HEAD_PITCH_DEG) -> torch.Tensor:
+    """Global head rotation ``(T, 4)`` wxyz float64 from ears and nose: +X toward the left ear, +Z the face's
     forward (nose minus mid-ears, tilted up by ``pitch_deg``), +Y up (identity = looking along +Z)."""
     w = np.asarray(world, np.float64)
     left = _unit(w[..., _L["left_ear"], :] - w[..., _L["right_ear"], :])
@@ -114,39 +107,11 @@ def head_rotation(world: np.ndarray, pitch_deg: float = HEAD_PITCH_DEG) -> np.nd
     a = math.radians(pitch_deg)
     fwd, up = math.cos(a) * fwd + math.sin(a) * up, math.cos(a) * up - math.sin(a) * fwd
     m = np.stack([left, up, fwd], axis=-1)
-    return quat.from_matrix(torch.from_numpy(m)).numpy()
+    return quat.from_matrix(torch.from_numpy(m))
 
 
-def solve_translation(points: np.ndarray, pixels: np.ndarray, weights: np.ndarray, focal: float,
-                      centre: tuple[float, float]) -> np.ndarray:
-    """Per-frame translation ``(T, 3)`` (Y-up frame: x right, y up, z toward the camera) that makes
-    ``points + t`` project onto ``pixels``: hip-centred ``points (T, K, 3)`` in the Y-up camera-
-    aligned frame, ``pixels (T, K, 2)``, ``weights (T, K)`` >= 0, a pinhole of focal length
-    ``focal`` px and principal point ``centre``. Linear least squares on the projection equations
-    ``f (X + tx) = (u - cx)(Z + tz)`` (and the same for y), in camera coordinates."""
-    p = np.asarray(points, np.float64) * np.array([1.0, -1.0, -1.0])  # -> camera: y down, z forward
-    du = pixels[..., 0] - centre[0]
-    dv = pixels[..., 1] - centre[1]
-    w = np.sqrt(np.clip(weights, 0.0, None))
-    t_count, k = du.shape
-    a = np.zeros((t_count, 2 * k, 3))
-    b = np.zeros((t_count, 2 * k))
-    a[:, :k, 0] = focal
-    a[:, :k, 2] = -du
-    b[:, :k] = du * p[..., 2] - focal * p[..., 0]
-    a[:, k:, 1] = focal
-    a[:, k:, 2] = -dv
-    b[:, k:] = dv * p[..., 2] - focal * p[..., 1]
-    ww = np.concatenate([w, w], axis=1)
-    a, b = a * ww[..., None], b * ww
-    ata = np.einsum("tki,tkj->tij", a, a) + 1e-9 * np.eye(3)
-    atb = np.einsum("tki,tk->ti", a, b)
-    t = np.linalg.solve(ata, atb[..., None])[..., 0]
-    return t * np.array([1.0, -1.0, -1.0])
-
-
-def up_rotation(joints: np.ndarray, max_deg: float = 35.0) -> np.ndarray:
-    """Rotation ``(4,)`` taking the clip's median body axis (mid-feet to neck) onto +Y.
+def up_rotation(joints: np.ndarray, max_deg: float = 35.0) -> torch.Tensor:
+    """Rotation ``(4,)`` float64 taking the clip's median body axis (mid-feet to neck) onto +Y.
 
     Corrects the camera's pitch and roll, assuming the person is upright on average; when the
     axis is more than ``max_deg`` from the image's up (lying, upside down) nothing is corrected.
@@ -156,8 +121,8 @@ def up_rotation(joints: np.ndarray, max_deg: float = 35.0) -> np.ndarray:
     axis = _unit(joints[:, ix("Neck")] - feet)
     med = _unit(np.median(axis, axis=0))
     if math.degrees(math.acos(np.clip(med[1], -1.0, 1.0))) > max_deg:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return quat.between(torch.from_numpy(med), torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)).numpy()
+        return _IDENTITY.clone()
+    return quat.between(torch.from_numpy(med), _Y_UP)
 
 
 # Height of each contact joint (Foot_L, Toes_L, Foot_R, Toes_R) above the floor when the foot is flat.
@@ -280,8 +245,8 @@ def skating(rel: np.ndarray, root: np.ndarray, fps: float) -> tuple[float, float
     return float((c * v_feet).sum() / max(c.sum(), 1e-9)), float(v_root.mean())
 
 
-def floor_tilt(rel: np.ndarray, root: np.ndarray, fps: float, prior_m: float = 0.5, max_deg: float = 20.0) -> np.ndarray:
-    """Rotation ``(4,)`` that levels the floor under the feet that are down along the camera path.
+def floor_tilt(rel: np.ndarray, root: np.ndarray, fps: float, prior_m: float = 0.5, max_deg: float = 20.0) -> torch.Tensor:
+    """Rotation ``(4,)`` float64 that levels the floor under the feet that are down along the camera path.
 
     A plane ``y = a x + b z + c`` is fitted to the contact points, with a ridge toward level
     (equivalent to ``prior_m`` of spread): a person who stays in place leaves the body-axis
@@ -292,7 +257,7 @@ def floor_tilt(rel: np.ndarray, root: np.ndarray, fps: float, prior_m: float = 0
     pts = (root[:, None, :] + rel[:, _FEET]).reshape(-1, 3)
     total = c.sum()
     if total < 3:
-        return np.array([1.0, 0.0, 0.0, 0.0])
+        return _IDENTITY.clone()
     centre = (c[:, None] * pts).sum(0) / total
     d = pts - centre
     xz = d[:, [0, 2]]
@@ -301,5 +266,5 @@ def floor_tilt(rel: np.ndarray, root: np.ndarray, fps: float, prior_m: float = 0
     normal = np.array([-slope[0], 1.0, -slope[1]])
     normal /= np.linalg.norm(normal)
     if math.degrees(math.acos(normal[1])) > max_deg:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return quat.between(torch.from_numpy(normal), torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)).numpy()
+        return _IDENTITY.clone()
+    return quat.between(torch.from_numpy(normal), _Y_UP)

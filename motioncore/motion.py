@@ -9,6 +9,7 @@ import torch
 from motioncore import quat
 from motioncore.kinematics import fk
 from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
+from motioncore.span import Span, check_span
 
 
 @dataclass
@@ -76,20 +77,6 @@ def mirror(motion: Motion, spec: CanonicalSpec = CANONICAL) -> Motion:
     lrot = motion.lrot[:, idx] * motion.lrot.new_tensor([1.0, 1.0, -1.0, -1.0])
     lpos = motion.lpos[:, idx] * motion.lpos.new_tensor([-1.0, 1.0, 1.0])
     return Motion(motion.skeleton, lrot, lpos, motion.fps)
-
-
-Span = tuple[float | None, float | None]  # (start, end) in seconds; None = open end
-
-
-def check_span(span: Span, source: str) -> Span:
-    """``(start, end)`` in seconds, either None (open); raises ValueError naming ``source`` when invalid."""
-    start, end = span
-    for name, v in (("--start", start), ("--end", end)):
-        if v is not None and not (math.isfinite(v) and v >= 0):
-            raise ValueError(f"{source}: {name} expected a time in seconds >= 0, got {v}")
-    if start is not None and end is not None and end <= start:
-        raise ValueError(f"{source}: --end ({end:g} s) must be after --start ({start:g} s)")
-    return span
 
 
 def trim(motion: Motion, span: Span, source: str) -> Motion:

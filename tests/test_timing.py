@@ -6,7 +6,8 @@ import math
 import pytest
 import torch
 
-from motioncore.motion import check_span, root_speed, time_warp, trim
+from motioncore.motion import root_speed, time_warp, trim
+from motioncore.span import check_span
 from tests.helpers import random_motion
 
 

@@ -15,19 +15,20 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from lifting.blazepose.tracker import PoseTracker
+from lifting.camera import DEFAULT_FOV_DEG
 from lifting.filtering import DEFAULT_CUTOFF_HZ
-from lifting.fit import DEFAULT_FOV_DEG
-from lifting.lift import LiftResult, Progress, _Reporter, lift_video
+from lifting.lift import Progress, _Reporter, lift_video
 from lifting.video import iter_frames, prefetched
-from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.files import publish
-from motioncore.render import Panel, check_video, render_frame
-from motioncore.skeleton import CANONICAL
+
+if TYPE_CHECKING:
+    from lifting.reconstruct import LiftResult
 
 PREVIEW_HEIGHT = 480
 # BlazePose's landmark graph (MediaPipe POSE_CONNECTIONS), body part only (no face outline).
@@ -68,6 +69,12 @@ def pose_file(
         if preview is not None:
             tmp_preview = _write_preview(video, lifted, Path(preview), progress)
         t2 = time.perf_counter()
+        from motioncore.bvh import (  # torch: imported while tracking
+            BvhLayout,
+            write_bvh,
+        )
+        from motioncore.skeleton import CANONICAL
+
         write_bvh(out_bvh, lifted.motion, BvhLayout.default(CANONICAL.skeleton, scale=0.01))
         if tmp_preview is not None:
             try:
@@ -165,6 +172,9 @@ class _Writer:
 
 def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress) -> str:
     """Render the preview to a temporary file beside ``out``; returns its path (the caller renames)."""
+    from motioncore.render import Panel, check_video, render_frame
+    from motioncore.skeleton import CANONICAL
+
     tr = lifted.track
     height = PREVIEW_HEIGHT
     scale = height / tr.height

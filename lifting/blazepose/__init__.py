@@ -6,7 +6,7 @@ converter (:mod:`lifting.blazepose.tflite2onnx`); see :mod:`lifting.blazepose.as
 
 from lifting.blazepose.assets import ModelUnavailableError, ensure_models
 from lifting.blazepose.landmarks import POSE_LANDMARKS
-from lifting.blazepose.tracker import PoseFrame, PoseTracker, TrackResult, track_video
+from lifting.blazepose.tracker import PoseFrame, PoseTracker, TrackResult
 
 __all__ = [
     "POSE_LANDMARKS",
@@ -15,5 +15,4 @@ __all__ = [
     "PoseTracker",
     "TrackResult",
     "ensure_models",
-    "track_video",
 ]

@@ -27,12 +27,17 @@ import zipfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from lifting.blazepose.landmarks import OUTPUTS as LANDMARK_OUTPUTS
+
 if TYPE_CHECKING:  # onnx is imported only to convert (a second of start-up otherwise)
     import onnx
 
 MEDIAPIPE_VERSION = "0.10.14"
 # Bump when the converter's output changes, so stale caches are not reused.
-CONVERTER_TAG = "tflite2onnx-v1"
+CONVERTER_TAG = "tflite2onnx-v2"
+# v1 held the same weights with the landmark model's segmentation output still computed: such a
+# cache is pruned in place (onnx, no download) rather than fetched again.
+PRUNABLE_TAGS = ("tflite2onnx-v1",)
 WHEEL_ENV = "VIDEO2STYLE_MEDIAPIPE_WHEEL"
 CACHE_ENV = "VIDEO2STYLE_CACHE"
 
@@ -47,6 +52,8 @@ MODELS = {
         "e9a5c5cb17f736fafd4c2ec1da3b3d331d6edbe8a0d32395855aeb2cdfd64b9f",
     ),
 }
+# model name -> the graph outputs kept (the rest, and what only they need, is cut); absent: all.
+KEEP_OUTPUTS = {"pose_landmark_full": LANDMARK_OUTPUTS}
 
 PIP_DOWNLOAD_ARGS = [
     "download",
@@ -126,6 +133,9 @@ def ensure_models(cache_dir: str | Path | None = None, wheel: str | Path | None 
     paths = {name: out_dir / f"{name}.onnx" for name in MODELS}
     missing = [name for name, path in paths.items() if not path.is_file()]
     out_dir.mkdir(parents=True, exist_ok=True)
+    missing = _prune_previous(root, missing, paths, notify)
+    if not missing:
+        return paths
     wheel = _local_wheel(root, wheel)
     if wheel is not None:
         notify(f"reading the BlazePose models from {wheel} (sha256-checked) into {out_dir}")
@@ -209,7 +219,33 @@ def _convert_members(wheel: Path, names: list[str], paths: dict[str, Path]) -> N
     for name in names:
         member, sha256 = MODELS[name]
         model = convert_tflite(read_wheel_member(wheel, member, sha256), name=name)
-        _atomic_save(model, paths[name])
+        _atomic_save(prune_outputs(model, KEEP_OUTPUTS.get(name)), paths[name])
+
+
+def prune_outputs(model: onnx.ModelProto, keep: tuple[str, ...] | None) -> onnx.ModelProto:
+    """``model`` with only the graph outputs ``keep`` and the nodes they need (None: unchanged)."""
+    if keep is None:
+        return model
+    import onnx.utils
+
+    names = [o.name for o in model.graph.output]
+    if not set(keep) <= set(names):
+        raise ValueError(f"expected outputs {list(keep)} among the model's {names}")
+    inputs = [i.name for i in model.graph.input]
+    return onnx.utils.Extractor(model).extract_model(inputs, list(keep))
+
+
+def _prune_previous(root: Path, missing: list[str], paths: dict[str, Path], notify) -> list[str]:
+    """Make what is missing from a previous converter's files in the same cache; returns what is still missing."""
+    for tag in PRUNABLE_TAGS:
+        old = root / "blazepose" / tag
+        for name in [n for n in missing if (old / f"{n}.onnx").is_file()]:
+            import onnx
+
+            notify(f"updating the cached BlazePose model {name} ({tag} -> {CONVERTER_TAG}, no download)")
+            _atomic_save(prune_outputs(onnx.load(str(old / f"{name}.onnx")), KEEP_OUTPUTS.get(name)), paths[name])
+            missing = [n for n in missing if n != name]
+    return missing
 
 
 def _atomic_save(model: onnx.ModelProto, path: Path) -> None:

@@ -69,18 +69,26 @@ def refine_with_heatmap(
         raise ValueError(f"expected xy of shape ({channels}, 2), got {xy.shape}")
     out = np.array(xy, dtype=float, copy=True)
     offset = (kernel_size - 1) // 2
-    for k in range(channels):
-        col, row = int(xy[k, 0] * hm_w), int(xy[k, 1] * hm_h)  # truncation, as in C++
-        if not (0 <= col < hm_w and 0 <= row < hm_h):
-            continue
-        r0, r1 = max(0, row - offset), min(hm_h, row + offset + 1)
-        c0, c1 = max(0, col - offset), min(hm_w, col + offset + 1)
-        conf = sigmoid(heatmap[r0:r1, c0:c1, k].astype(np.float64))
-        total = conf.sum()
-        if conf.max() >= min_confidence and total > 0:
-            rows, cols = np.mgrid[r0:r1, c0:c1]
-            out[k] = ((cols * conf).sum() / hm_w / total, (rows * conf).sum() / hm_h / total)
+    col, row = (xy[:, 0] * hm_w).astype(int), (xy[:, 1] * hm_h).astype(int)  # truncation, as in C++
+    step = np.arange(-offset, offset + 1)
+    rows, cols = row[:, None] + step, col[:, None] + step  # (K, S) window cells, some outside
+    logits = heatmap[np.clip(rows, 0, hm_h - 1)[:, :, None], np.clip(cols, 0, hm_w - 1)[:, None, :],
+                     np.arange(channels)[:, None, None]]  # (K, S, S)
+    inside = ((rows >= 0) & (rows < hm_h))[:, :, None] & ((cols >= 0) & (cols < hm_w))[:, None, :]
+    conf = np.where(inside, sigmoid(logits.astype(np.float64)), 0.0)
+    total = conf.sum(axis=(1, 2))
+    use = (0 <= col) & (col < hm_w) & (0 <= row) & (row < hm_h) & (conf.max(axis=(1, 2)) >= min_confidence) & (total > 0)
+    if use.any():
+        conf, total = conf[use], total[use]
+        x = (conf * cols[use][:, None, :]).sum(axis=(1, 2)) / hm_w / total
+        y = (conf * rows[use][:, :, None]).sum(axis=(1, 2)) / hm_h / total
+        out[use] = np.stack([x, y], axis=-1)
     return out
+
+
+# The landmark graph's outputs read here: landmarks, presence flag, heatmap, world landmarks. Its
+# fifth, the 256x256 segmentation mask (Identity_2), is cut from the converted model (assets.py).
+OUTPUTS = ("Identity", "Identity_1", "Identity_3", "Identity_4")
 
 
 class LandmarkModel:
@@ -93,9 +101,7 @@ class LandmarkModel:
     def run(self, frame_rgb: np.ndarray, roi: Roi) -> LandmarkOutput:
         """Landmarks of the person in ``roi`` of ``frame_rgb`` (H,W,3) uint8."""
         tensor = crop(frame_rgb, roi, INPUT_SIZE).astype(np.float32) * (1.0 / 255.0)
-        raw, flag, heatmap, world = self.session.run(
-            ["Identity", "Identity_1", "Identity_3", "Identity_4"], {self._input: tensor[None]}
-        )
+        raw, flag, heatmap, world = self.session.run(list(OUTPUTS), {self._input: tensor[None]})
         return decode_landmarks(raw[0], float(flag.reshape(-1)[0]), heatmap[0], world[0], roi)
 
 

@@ -25,7 +25,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
 from lifting.blazepose.assets import ensure_models
 from lifting.blazepose.detector import Detection, PoseDetector
@@ -33,7 +32,6 @@ from lifting.blazepose.filters import OneEuroFilter
 from lifting.blazepose.geometry import Roi, roi_from_alignment_points
 from lifting.blazepose.landmarks import NUM_LANDMARKS, LandmarkModel, LandmarkOutput
 from lifting.blazepose.runtime import make_session
-from lifting.video import iter_frames, video_info
 
 _HIP_CENTRE, _BODY_POINT = 33, 34  # auxiliary landmark indices
 _MP_TO_Y_UP = np.array([1.0, -1.0, -1.0])
@@ -242,27 +240,3 @@ def choose_detection(
     radius = GATE_RADIUS + GATE_GROWTH * seconds_since_seen
     best = int(np.argmin(distance))
     return detections[best] if distance[best] <= radius else None
-
-
-def track_video(
-    path: str | Path, progress: bool = True, tracker: PoseTracker | None = None, **tracker_options
-) -> TrackResult:
-    """Run :class:`PoseTracker` over every frame of a video file.
-
-    ``tracker_options`` go to :class:`PoseTracker` when ``tracker`` is None; a
-    given tracker is reset first. Shows a tqdm bar in frames when ``progress``.
-    """
-    fps, n_frames, width, height = video_info(path)
-    tracker = tracker if tracker is not None else PoseTracker(**tracker_options)
-    tracker.reset()
-    frames: list[PoseFrame] = []
-    times = []
-    bar = tqdm(total=n_frames, unit="frame", desc=Path(path).name, disable=not progress)
-    try:
-        for _, time_s, frame in iter_frames(path):
-            frames.append(tracker.process(frame, time_s))
-            times.append(time_s)
-            bar.update(1)
-    finally:
-        bar.close()
-    return TrackResult.stack(frames, times, fps, width, height)

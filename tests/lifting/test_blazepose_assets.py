@@ -7,12 +7,17 @@ import subprocess
 import sys
 import zipfile
 
+import numpy as np
 import onnx
+import onnxruntime as ort
 import pytest
+from onnx import TensorProto, helper
 
 from lifting.blazepose import assets
 from lifting.blazepose.assets import (
     CACHE_ENV,
+    CONVERTER_TAG,
+    LANDMARK_OUTPUTS,
     MODELS,
     WHEEL_ENV,
     ModelUnavailableError,
@@ -63,6 +68,35 @@ def test_hand_copied_onnx_files_in_cache_root_are_accepted(tmp_path, no_env, no_
     assert ensure_models(tmp_path)["pose_detection"] == tmp_path / "pose_detection.onnx"
 
 
+def _toy_model(outputs: list[str]) -> onnx.ModelProto:
+    """x (1, 2) -> one Relu per output name."""
+    x = helper.make_tensor_value_info("input_1", TensorProto.FLOAT, [1, 2])
+    nodes = [helper.make_node("Relu", ["input_1"], [name], name=f"node_{name}") for name in outputs]
+    outs = [helper.make_tensor_value_info(name, TensorProto.FLOAT, [1, 2]) for name in outputs]
+    model = helper.make_model(helper.make_graph(nodes, "toy", [x], outs), opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    return model
+
+
+def test_a_previous_converters_cache_is_pruned_without_download(tmp_path, no_env, no_network):
+    old = tmp_path / "blazepose" / "tflite2onnx-v1"
+    old.mkdir(parents=True)
+    every = [f"Identity{s}" for s in ("", "_1", "_2", "_3", "_4")]
+    onnx.save(_toy_model(every), str(old / "pose_landmark_full.onnx"))
+    onnx.save(_toy_model(["Identity", "Identity_1"]), str(old / "pose_detection.onnx"))
+    said = []
+    paths = ensure_models(tmp_path, notify=said.append)
+    assert paths["pose_landmark_full"].parent.name == CONVERTER_TAG
+    assert len(said) == 2 and all("no download" in line for line in said)
+    landmark = onnx.load(str(paths["pose_landmark_full"]))
+    assert [o.name for o in landmark.graph.output] == list(LANDMARK_OUTPUTS)
+    assert len(landmark.graph.node) == len(LANDMARK_OUTPUTS)  # the mask's node went with its output
+    assert [o.name for o in onnx.load(str(paths["pose_detection"])).graph.output] == ["Identity", "Identity_1"]
+    session = ort.InferenceSession(str(paths["pose_landmark_full"]), providers=["CPUExecutionProvider"])
+    out = session.run(None, {"input_1": np.array([[-1.0, 2.0]], np.float32)})
+    np.testing.assert_array_equal(out[0], [[0.0, 2.0]])
+
+
 def test_download_failure_explains_offline_setup(tmp_path, no_env, no_network):
     with pytest.raises(ModelUnavailableError) as info:
         ensure_models(tmp_path)
@@ -102,7 +136,8 @@ def test_cached_models_are_valid_onnx(blazepose_models):
     lm = onnx.load(str(blazepose_models["pose_landmark_full"]))
     assert [i.name for i in det.graph.input] == ["input_1"]
     assert [o.name for o in det.graph.output] == ["Identity", "Identity_1"]
-    assert [o.name for o in lm.graph.output] == [f"Identity{s}" for s in ("", "_1", "_2", "_3", "_4")]
+    assert [o.name for o in lm.graph.output] == list(LANDMARK_OUTPUTS)  # the segmentation mask is cut
+    assert "Identity_2" not in LANDMARK_OUTPUTS
     dims = [d.dim_value for d in lm.graph.input[0].type.tensor_type.shape.dim]
     assert dims == [1, 256, 256, 3]  # NHWC kept
     assert det.opset_import[0].version == 13

@@ -1,4 +1,4 @@
-"""PoseTracker / track_video on synthetic humanoid renders (needs the models)."""
+"""PoseTracker / lifting.lift.track on synthetic humanoid renders (needs the models)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from lifting.blazepose.synthetic import (
     humanoid_joints,
     write_walking_clip,
 )
-from lifting.blazepose.tracker import TrackResult, track_video
+from lifting.blazepose.tracker import TrackResult
+from lifting.lift import track
 
 # BlazePose index -> synthetic joint (the figure faces the camera: its left is image right)
 JOINTS = {
@@ -85,9 +86,9 @@ def test_rejects_bad_frames(tracker):
         tracker.process(np.zeros((10, 10), np.uint8))
 
 
-def test_track_video_on_synthetic_clip(tmp_path, tracker):
+def test_track_on_synthetic_clip(tmp_path, tracker):
     clip = write_walking_clip(tmp_path / "walk.mp4", width=W, height=H, n_frames=30, fps=30.0)
-    result = track_video(clip, progress=False, tracker=tracker)
+    result = track(clip, tracker=tracker)
     assert isinstance(result, TrackResult)
     assert (result.fps, result.width, result.height) == (pytest.approx(30.0), W, H)
     assert result.world.shape == result.image.shape == (30, 33, 3)

@@ -7,6 +7,8 @@ models (skipped cleanly without them, like the other tracker tests).
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import cv2
 import numpy as np
@@ -150,7 +152,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert np.abs(pred[:, 0, [0, 2]]).max() < 0.3  # standing: the path stays near the start
     assert encode(motion).shape[0] == motion.num_frames  # the representation accepts it
     # The unfiltered lift of the same landmarks is jerkier.
-    from lifting.lift import lift_track
+    from lifting.reconstruct import lift_track
 
     raw = lift_track(lifted.track, str(video), cutoff_hz=None).motion.global_positions().double().numpy()
     assert compare(raw, gt, 30.0)["jitter"] > m["jitter"]
@@ -194,7 +196,8 @@ def test_truncated_avi(tracker, tmp_path):
 
 
 def test_short_gaps_are_interpolated(rendered, tracker, tmp_path):
-    from lifting.lift import lift_track, track
+    from lifting.lift import track
+    from lifting.reconstruct import lift_track
 
     video, truth = rendered
     result = track(video, tracker=tracker)
@@ -203,3 +206,22 @@ def test_short_gaps_are_interpolated(rendered, tracker, tmp_path):
     lifted = lift_track(result, str(video))
     assert (lifted.start, lifted.stop, lifted.filled) == (0, truth.num_frames, 4)
     assert torch.isfinite(lifted.motion.lrot).all() and torch.isfinite(lifted.motion.lpos).all()
+
+
+def test_the_tracking_side_imports_no_torch():
+    """torch (~1 s) is imported on a thread while frames are tracked, so the tracking side must not need it."""
+    code = "import sys, lifting.lift, video2style.pose; print(sorted(m for m in ('torch', 'kornia') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_the_background_import_hands_its_error_to_the_caller():
+    from lifting.lift import _importing
+
+    with pytest.raises(ModuleNotFoundError, match="no_such_module_v2s"), _importing("no_such_module_v2s"):
+        pass
+    # The block's own error is not masked by the import's.
+    with pytest.raises(ValueError, match="the block's own error"), _importing("no_such_module_v2s"):
+        raise ValueError("the block's own error")
+    with _importing("json") as imp:  # already imported: no thread
+        assert imp.thread is None

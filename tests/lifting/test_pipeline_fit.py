@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from lifting.blazepose.landmarks import POSE_LANDMARKS
+from lifting.camera import solve_translation
 from lifting.filtering import interpolate_gaps, longest_segment, lowpass, runs
 from lifting.fit import (
     ANCHORS,
@@ -22,7 +23,6 @@ from lifting.fit import (
     head_rotation,
     landmarks_to_joints,
     moving_ground,
-    solve_translation,
     up_rotation,
 )
 from motioncore import quat
@@ -127,7 +127,7 @@ def test_landmark_joints_fit_close_to_truth():
     joints = landmarks_to_joints(world)
     assert joints.shape == (truth.num_frames, SK.num_joints, 3)
     fitted = fit_positions(torch.from_numpy(joints), truth.fps, anchors=ANCHORS,
-                           leaf_rotations={SK.index("Head"): torch.from_numpy(head_rotation(world))})
+                           leaf_rotations={SK.index("Head"): head_rotation(world)})
     err = (fitted.global_positions().double() - truth.global_positions().double()).norm(dim=-1)
     assert float(err.mean()) < 0.03  # the torso joints without landmarks are placed as in the mean pose
 
@@ -139,7 +139,7 @@ def test_head_rotation_of_a_level_face_is_identity():
     a = math.radians(15.0)
     world[0, POSE_LANDMARKS.index("nose")] = (0.0, 1.6 - 0.1 * math.sin(a), 0.1 * math.cos(a))
     q = head_rotation(world)
-    assert math.degrees(float(quat.angle(torch.from_numpy(q[0])))) < 0.5
+    assert q.dtype == torch.float64 and math.degrees(float(quat.angle(q[0]))) < 0.5
 
 
 # ---------------------------------------------------------------- filtering
@@ -250,13 +250,13 @@ def test_up_rotation_levels_a_tilted_body():
     ref = Motion(SK, default_reference()[None].expand(10, -1, -1), SK.offsets.expand(10, -1, -1).clone(), 30.0)
     pos = ref.global_positions().double()
     x_axis = torch.tensor([1.0, 0.0, 0.0], dtype=torch.float64)
-    q0 = torch.from_numpy(up_rotation(pos.numpy()))
+    q0 = up_rotation(pos.numpy())
     assert math.degrees(float(quat.angle(q0))) < 10.0  # the mean pose stands nearly upright
     tilt = quat.from_axis_angle(x_axis, torch.tensor(math.radians(12.0), dtype=torch.float64))
-    q = torch.from_numpy(up_rotation(quat.mul_vec(tilt, pos).numpy()))
+    q = up_rotation(quat.mul_vec(tilt, pos).numpy())
     # Levelling the tilted body gives what levelling the upright one gives (up to a turn about Y).
     diff = quat.mul(quat.mul(q, tilt), quat.inv(q0))
     y = torch.tensor([0.0, 1.0, 0.0], dtype=torch.float64)
     torch.testing.assert_close(quat.mul_vec(diff, y), y)
     upside_down = quat.mul_vec(quat.from_axis_angle(x_axis, torch.tensor(math.pi, dtype=torch.float64)), pos).numpy()
-    np.testing.assert_allclose(up_rotation(upside_down), [1.0, 0.0, 0.0, 0.0])  # not upright: left alone
+    torch.testing.assert_close(up_rotation(upside_down), torch.tensor([1.0, 0.0, 0.0, 0.0], dtype=torch.float64))  # not upright: left alone
