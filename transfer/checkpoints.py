@@ -1,7 +1,8 @@
 """Saving and loading the project's models: weights with their config in safetensors metadata (nothing is
-ever unpickled), an optional JSON model card beside them, and optimizer state as plain tensors for
-resumable training checkpoints. Every model module (denoiser, motion encoder, classifiers, Park et
-al.'s networks) and every trainer saves and loads through here."""
+ever unpickled), an optional JSON model card beside them, and resumable training checkpoints
+(:class:`RunCheckpoint`: modules, optimizer moments as plain tensors, config, step). Every model module
+(denoiser, motion encoder, classifiers, Park et al.'s networks) and every trainer saves and loads
+through here."""
 from __future__ import annotations
 
 import json
@@ -9,7 +10,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 import torch
-from safetensors.torch import save_file
+from safetensors.torch import load_file, save_file
 from torch import nn
 
 
@@ -55,4 +56,59 @@ def load_optimizer(opt: torch.optim.Optimizer, names: dict[int, str], tensors: d
             if state:
                 if "step" in state:
                     state["step"] = state["step"].reshape(())
-                opt.state[p] = state
+                opt.state[p] = {k: v if k == "step" else v.to(p.device) for k, v in state.items()}
+
+
+class RunCheckpoint:
+    """A training run's state in one safetensors file: each named module's weights (keys ``<name>.<param>``),
+    each named optimizer's moments (keys ``<name>.opt.<param>.<state>``; the optimizer named ``""`` has
+    keys ``opt.<param>.<state>``), and in the metadata the config dataclass, the step and the seconds
+    trained. Resuming with explicit settings that differ from the saved config is an error, never a
+    silent override. Tensors are saved from, and loaded onto, the modules' own devices.
+
+    ``param_names``: optimizer parameter ``id`` -> the name its moments are stored under.
+    """
+
+    def __init__(self, path: Path, config, modules: dict[str, nn.Module],
+                 optimizers: dict[str, torch.optim.Optimizer], param_names: dict[int, str]):
+        self.path, self.config = Path(path), config
+        self.modules, self.optimizers, self.param_names = modules, optimizers, param_names
+        self.step, self.elapsed = 0, 0.0
+
+    def save(self) -> None:
+        from motioncore.files import atomic_output
+
+        tensors = {}
+        for name, module in self.modules.items():
+            tensors.update({f"{name}.{k}": v.detach().cpu().contiguous() for k, v in module.state_dict().items()})
+        for name, opt in self.optimizers.items():
+            prefix = f"{name}." if name else ""
+            tensors.update({prefix + k: v.cpu() for k, v in optimizer_tensors(opt, self.param_names).items()})
+        meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_output(self.path, ".tmp") as tmp:
+            save_file(tensors, str(tmp), metadata=meta)
+
+    def resume(self, explicit: dict) -> bool:
+        """Load the checkpoint if there is one (False if not). ``explicit``: settings the user gave, which
+        must match the saved config."""
+        from safetensors import safe_open
+
+        if not self.path.is_file():
+            return False
+        with safe_open(str(self.path), framework="pt") as f:
+            meta = f.metadata()
+        saved = json.loads(meta["config"])
+        clash = {k: (saved.get(k), v) for k, v in explicit.items() if k in saved and saved[k] != v}
+        if clash:
+            detail = ", ".join(f"{k}: checkpoint {a!r} vs given {b!r}" for k, (a, b) in clash.items())
+            raise ValueError(f"{self.path}: cannot resume with different settings ({detail}); use a new output folder")
+        tensors = load_file(str(self.path))
+        for name, module in self.modules.items():
+            prefix = f"{name}."
+            module.load_state_dict({k[len(prefix):]: v for k, v in tensors.items() if k.startswith(prefix)})
+        for name, opt in self.optimizers.items():
+            prefix = f"{name}." if name else ""
+            load_optimizer(opt, self.param_names, {k[len(prefix):]: v for k, v in tensors.items() if k.startswith(prefix + "opt.")})
+        self.step, self.elapsed = int(meta["step"]), float(meta.get("elapsed", 0))
+        return True

@@ -12,26 +12,21 @@ D and all four optimizers' moments; ``log.csv`` gets one row per iteration. The 
 from __future__ import annotations
 
 import copy
-import csv
 import dataclasses
-import json
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import torch
-from safetensors import safe_open
-from safetensors.torch import load_file, save_file
-from tqdm import tqdm
 
-from motioncore.files import atomic_output
 from motioncore.representation import FEATURES
-from transfer.checkpoints import load_optimizer, optimizer_tensors, save_model
+from transfer.checkpoints import RunCheckpoint, save_model
 from transfer.classifiers import labelled_clips
 from transfer.dataset import MotionDataset
 from transfer.park.losses import LossWeights, d_loss, g_loss
 from transfer.park.networks import Discriminator, ParkConfig, ParkModel, he_init
 from transfer.shipped import weights_dir
+from transfer.training import train_loop, update_ema
 
 
 def default_weights() -> Path:
@@ -114,43 +109,14 @@ class ParkTraining:
         adam = lambda mod, lr: torch.optim.Adam(mod.parameters(), lr, betas=tuple(config.betas), weight_decay=config.weight_decay)
         self.opts = {"g": adam(self.model.g, config.lr_g), "e": adam(self.model.e, config.lr_e),
                      "f": adam(self.model.f, config.lr_f), "d": adam(self.disc, config.lr_d)}
-        self.names = {id(p): f"model.{n}" for n, p in self.model.named_parameters()}
-        self.names.update({id(p): f"disc.{n}" for n, p in self.disc.named_parameters()})
-        self.step, self.elapsed = 0, 0.0
+        names = {id(p): f"model.{n}" for n, p in self.model.named_parameters()}
+        names.update({id(p): f"disc.{n}" for n, p in self.disc.named_parameters()})
+        self.checkpoint = RunCheckpoint(self.out_dir / "checkpoint.safetensors", config,
+                                        {"model": self.model, "ema": self.ema, "disc": self.disc}, self.opts, names)
 
     @property
-    def checkpoint_path(self) -> Path:
-        return self.out_dir / "checkpoint.safetensors"
-
-    def save(self) -> None:
-        self.out_dir.mkdir(parents=True, exist_ok=True)
-        t = {f"model.{k}": v.detach().contiguous() for k, v in self.model.state_dict().items()}
-        t.update({f"ema.{k}": v.detach().contiguous() for k, v in self.ema.state_dict().items()})
-        t.update({f"disc.{k}": v.detach().contiguous() for k, v in self.disc.state_dict().items()})
-        for name, opt in self.opts.items():
-            t.update({f"{name}.{k}": v for k, v in optimizer_tensors(opt, self.names).items()})
-        meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
-        with atomic_output(self.checkpoint_path, ".tmp") as tmp:
-            save_file(t, str(tmp), metadata=meta)
-
-    def resume(self, explicit: dict) -> bool:
-        """Load the checkpoint if there is one; ``explicit`` settings must match the saved config."""
-        if not self.checkpoint_path.is_file():
-            return False
-        with safe_open(str(self.checkpoint_path), framework="pt") as f:
-            meta = f.metadata()
-        saved = json.loads(meta["config"])
-        clash = {k: (saved.get(k), v) for k, v in explicit.items() if k in saved and saved[k] != v}
-        if clash:
-            detail = ", ".join(f"{k}: checkpoint {a!r} vs given {b!r}" for k, (a, b) in clash.items())
-            raise ValueError(f"{self.checkpoint_path}: cannot resume with different settings ({detail}); use a new out_dir")
-        t = load_file(str(self.checkpoint_path))
-        for prefix, mod in (("model.", self.model), ("ema.", self.ema), ("disc.", self.disc)):
-            mod.load_state_dict({k[len(prefix):]: v for k, v in t.items() if k.startswith(prefix)})
-        for name, opt in self.opts.items():
-            load_optimizer(opt, self.names, {k[len(name) + 1:]: v for k, v in t.items() if k.startswith(f"{name}.opt.")})
-        self.step, self.elapsed = int(meta["step"]), float(meta.get("elapsed", 0))
-        return True
+    def step(self) -> int:
+        return self.checkpoint.step
 
     def init_from(self, weights_path: Path) -> None:
         """Start G/E/F (and their EMA copies) from exported weights; the widths must match the config."""
@@ -161,14 +127,6 @@ class ParkTraining:
             raise ValueError(f"{weights_path}: expected channels {self.model.config.channels}, got {exported.config.channels}")
         self.model.load_state_dict(exported.state_dict())
         self.ema.load_state_dict(exported.state_dict())
-
-    @torch.no_grad()
-    def update_ema(self) -> None:
-        d = min(self.config.ema, (1 + self.step) / (10 + self.step))
-        for pe, pm in zip(self.ema.parameters(), self.model.parameters()):
-            pe.mul_(d).add_(pm, alpha=1 - d)
-        for be, bm in zip(self.ema.buffers(), self.model.buffers()):
-            be.copy_(bm)
 
     def iteration(self, sampler: WindowSampler, gen: torch.Generator) -> dict:
         """One D step and one G step; latent-guided on even steps, reference-guided on odd ones."""
@@ -196,8 +154,8 @@ class ParkTraining:
         self.disc.requires_grad_(True)
         for name in ("g", "f", "e") if latent else ("g",):
             self.opts[name].step()
-        self.step += 1
-        self.update_ema()
+        self.checkpoint.step += 1
+        update_ema(self.ema, self.model, self.config.ema, self.step)
         return {"mode": "latent" if latent else "reference", "g_total": loss.item(), **logs, **g_logs}
 
 
@@ -216,7 +174,7 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
     weights_path = Path(weights_path) if weights_path is not None else default_weights()
     run = ParkTraining(config, out_dir)
     init_note = None
-    if not run.resume(explicit or {}) and init_path is not None:
+    if not run.checkpoint.resume(explicit or {}) and init_path is not None:
         run.init_from(Path(init_path))
         init_note = f"fine-tuned from {Path(init_path).name}"
     data, idx, labels = labelled_clips(Path(data_dir), "train", "style")
@@ -230,33 +188,11 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
     gen = torch.Generator().manual_seed(config.seed * 1000003 + run.step)
     torch.manual_seed(config.seed * 1000003 + run.step)
 
-    log_path = run.out_dir / "log.csv"
-    run.out_dir.mkdir(parents=True, exist_ok=True)
-    start = last_ckpt = time.time()
-    elapsed0 = run.elapsed
     fields = ["step", "time_s", "mode", "g_total", "d_real", "d_fake", "r1", "g_adv", "cyc", "id", "sty", "ds"]
-    new_log = not log_path.is_file() or log_path.stat().st_size == 0
-    bar = tqdm(total=max_steps, initial=run.step, disable=not progress, unit="it", dynamic_ncols=True)
-    with open(log_path, "a", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
-        if new_log:
-            writer.writeheader()
-        try:
-            run.model.train()
-            while run.step < max_steps and time.time() - start < max_minutes * 60:
-                logs = run.iteration(sampler, gen)
-                writer.writerow({"step": run.step, "time_s": round(elapsed0 + time.time() - start, 1), **logs})
-                bar.update(1)
-                bar.set_postfix({k: f"{logs[k]:.3f}" for k in ("d_real", "d_fake", "g_adv", "cyc", "sty", "ds")})
-                if time.time() - last_ckpt > checkpoint_minutes * 60:
-                    fh.flush()
-                    run.elapsed = elapsed0 + time.time() - start
-                    run.save()
-                    last_ckpt = time.time()
-        finally:
-            bar.close()
-            run.elapsed = elapsed0 + time.time() - start
-            run.save()
+    run.model.train()
+    train_loop(run.checkpoint, lambda: run.iteration(sampler, gen), run.out_dir / "log.csv", max_steps, max_minutes,
+               checkpoint_minutes, progress, fields,
+               postfix=lambda row: {k: f"{row[k]:.3f}" for k in ("d_real", "d_fake", "g_adv", "cyc", "sty", "ds")})
     card = {
         "model": "video2style Park et al. 2021 stylizer (ST-GCN GAN): G, E, F (EMA weights); D not shipped",
         "domains": list(run.model.config.domains),
@@ -266,7 +202,7 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
         "steps": run.step,
         **({"initialised_from": init_note} if init_note else {}),
         "batch_size": config.batch_size,
-        "wall_time_minutes": round(run.elapsed / 60, 1),
+        "wall_time_minutes": round(run.checkpoint.elapsed / 60, 1),
         "torch_threads": torch.get_num_threads(),
         "machine": "2 CPU cores",
         "date": time.strftime("%Y-%m-%d"),

@@ -1,0 +1,68 @@
+"""RunCheckpoint: the one checkpoint format of every trainer (key layout pinned so that runs resume across versions)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from transfer.checkpoints import RunCheckpoint
+from transfer.training import update_ema
+
+
+@dataclass
+class Config:
+    width: int = 4
+    lr: float = 0.01
+
+
+def _run(tmp_path, named: bool):
+    torch.manual_seed(0)
+    a, b = torch.nn.Linear(3, 4), torch.nn.Linear(4, 2)
+    opts = {"g": torch.optim.Adam(a.parameters()), "d": torch.optim.Adam(b.parameters())} if named else \
+        {"": torch.optim.Adam([*a.parameters(), *b.parameters()])}
+    names = {id(p): f"a.{n}" for n, p in a.named_parameters()} | {id(p): f"b.{n}" for n, p in b.named_parameters()}
+    return a, b, opts, RunCheckpoint(tmp_path / "checkpoint.safetensors", Config(), {"model": a, "disc": b}, opts, names)
+
+
+@pytest.mark.parametrize("named", [False, True])
+def test_save_resume_round_trip_and_key_layout(tmp_path, named):
+    a, b, opts, ckpt = _run(tmp_path, named)
+    (b(a(torch.randn(5, 3))) ** 2).sum().backward()
+    for opt in opts.values():
+        opt.step()
+    ckpt.step, ckpt.elapsed = 7, 12.5
+    ckpt.save()
+    keys = set(load_file(str(ckpt.path)))
+    assert {"model.weight", "model.bias", "disc.weight", "disc.bias"} <= keys
+    prefix = "g.opt.a.weight." if named else "opt.a.weight."
+    assert {prefix + "exp_avg", prefix + "exp_avg_sq", prefix + "step"} <= keys
+
+    a2, _, opts2, ckpt2 = _run(tmp_path, named)
+    with torch.no_grad():
+        a2.weight.zero_()
+    assert ckpt2.resume({"width": 4}) and (ckpt2.step, ckpt2.elapsed) == (7, 12.5)
+    torch.testing.assert_close(a2.weight, a.weight)
+    for o, o2 in zip(opts.values(), opts2.values()):
+        for p, p2 in zip(o.param_groups[0]["params"], o2.param_groups[0]["params"]):
+            torch.testing.assert_close(o2.state[p2]["exp_avg"], o.state[p]["exp_avg"])
+    with pytest.raises(ValueError, match="cannot resume with different settings.*width: checkpoint 4 vs given 8"):
+        ckpt2.resume({"width": 8})
+
+
+def test_no_checkpoint_means_a_fresh_run(tmp_path):
+    *_, ckpt = _run(tmp_path / "new", named=False)
+    assert not ckpt.resume({}) and ckpt.step == 0
+
+
+def test_update_ema_warms_up_then_follows_decay():
+    ema, model = torch.nn.Linear(1, 1, bias=False), torch.nn.Linear(1, 1, bias=False)
+    with torch.no_grad():
+        ema.weight.fill_(0.0)
+        model.weight.fill_(1.0)
+    update_ema(ema, model, decay=0.999, step=0)  # d = min(0.999, 1/10)
+    assert float(ema.weight) == pytest.approx(0.9)
+    update_ema(ema, model, decay=0.5, step=1000)  # d = 0.5
+    assert float(ema.weight) == pytest.approx(0.95)
