@@ -28,9 +28,9 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
-    from transfer.classifiers import default_weights, load_classifier
+    from evaluation.classifiers import default_weights, load_classifier
+    from evaluation.prior_eval import retrieval, sample_quality
     from transfer.dataset import MotionDataset
-    from transfer.prior_eval import retrieval, sample_quality
     from video2style.pipeline import load_models
 
     if not (args.data / "features.safetensors").is_file():

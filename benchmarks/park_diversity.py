@@ -25,12 +25,12 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
+    from evaluation.park.infer import pairwise_diversity, stylize_noise
     from motioncore.render import Panel, render_video
     from motioncore.representation import decode
     from motioncore.skeleton import CANONICAL
     from transfer.captions import BANDAI2_CONTENTS
     from transfer.dataset import MotionDataset
-    from transfer.park.infer import pairwise_diversity, stylize_noise
     from video2style.park_apply import load_stylizer
 
     model = load_stylizer(args.weights)

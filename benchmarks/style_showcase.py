@@ -65,8 +65,8 @@ def main() -> None:
     ap.add_argument("--clips", type=int, default=4, help="Bandai test clips per content (default: %(default)s)")
     args = ap.parse_args()
 
+    from evaluation.classifiers import default_weights, load_classifier, run_batched
     from motioncore.representation import decode, encode
-    from transfer.classifiers import default_weights, load_classifier, run_batched
     from transfer.dataset import MotionDataset
     from transfer.style import Style, style_model
     from video2style.paths import default_dataset_dir

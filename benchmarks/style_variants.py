@@ -32,9 +32,9 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
+    from evaluation.classifiers import default_weights, load_classifier
     from motioncore.representation import encode
     from transfer.apply import apply_style_features
-    from transfer.classifiers import default_weights, load_classifier
     from transfer.dataset import MotionDataset
     from transfer.style import StyleConfig, learn_style, style_model
     from video2style.pipeline import load_models, read_clip

@@ -4,10 +4,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from motioncore.representation import FEATURES
-from tests.synthetic_cache import write_synthetic_cache
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.classifiers import (
+from evaluation.classifiers import (
     ClassifierConfig,
     ClassifierTrainConfig,
     MotionClassifier,
@@ -18,7 +15,10 @@ from transfer.classifiers import (
     run_batched,
     train_classifier,
 )
-from transfer.metrics import recognition_accuracy
+from evaluation.metrics import recognition_accuracy
+from motioncore.representation import FEATURES
+from tests.synthetic_cache import write_synthetic_cache
+from transfer.captions import BANDAI2_CONTENTS, STYLES
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 
@@ -69,7 +69,7 @@ def test_load_classifier_errors(tmp_path):
 def test_committed_weights(target, minimum):
     path = default_weights(target)
     if not path.is_file():
-        pytest.skip(f"{path.name} not trained yet (transfer.classifiers.train_classifier)")
+        pytest.skip(f"{path.name} not trained yet (evaluation.classifiers.train_classifier)")
     assert path.stat().st_size <= 2 * 1024 * 1024
     card = read_card(path)
     assert card["test_accuracy"] >= minimum and "CC BY-NC 4.0" in card["licence"]

@@ -4,11 +4,11 @@ from __future__ import annotations
 import pytest
 import torch
 
+from evaluation.park.networks import ParkConfig, ParkModel
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from transfer.checkpoints import save_model
-from transfer.park.networks import ParkConfig, ParkModel
 from video2style.cli import main
 
 
@@ -90,7 +90,7 @@ def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, mon
     cache = write_synthetic_cache(tmp_path / "cache")
     weights = {"content": _random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
                "style": _random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
-    monkeypatch.setattr("transfer.evaluation.default_weights", lambda target: weights[target])
+    monkeypatch.setattr("evaluation.protocol.default_weights", lambda target: weights[target])
     stgcn.load_stylizer.cache_clear()
     monkeypatch.setattr(stgcn, "weights_path", lambda name: park_weights)
     lines = list(evaluate(cache, tmp_path / "eval", quick=True, methods=["identity", "stgcn"]))

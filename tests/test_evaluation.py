@@ -4,18 +4,18 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.synthetic_cache import write_synthetic_cache
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.checkpoints import save_model
-from transfer.classifiers import ClassifierConfig, MotionClassifier
-from transfer.dataset import ClipRecord, MotionDataset
-from transfer.evaluation import (
+from evaluation.classifiers import ClassifierConfig, MotionClassifier
+from evaluation.protocol import (
     format_table,
     identity_transfer,
     protocol_clips,
     run_protocol,
     select_protocol,
 )
+from tests.synthetic_cache import write_synthetic_cache
+from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.checkpoints import save_model
+from transfer.dataset import ClipRecord, MotionDataset
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 

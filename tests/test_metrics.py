@@ -4,11 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from motioncore.kinematics import rest_positions
-from motioncore.representation import FEATURES, encode
-from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
-from transfer.metrics import (
+from evaluation.metrics import (
     foot_contact_agreement,
     foot_skating_ratio,
     frechet_distance,
@@ -16,6 +12,10 @@ from transfer.metrics import (
     recognition_accuracy,
     skating_frames,
 )
+from motioncore.kinematics import rest_positions
+from motioncore.representation import FEATURES, encode
+from motioncore.skeleton import CANONICAL
+from tests.helpers import random_motion
 
 
 def _samples_with_moments(n: int, mean: np.ndarray, cov: np.ndarray, seed: int) -> np.ndarray:
@@ -150,7 +150,7 @@ def test_foot_contact_agreement_on_a_real_motion_matches_encoded_flags():
 
 
 def test_recognition_accuracy_counts_matches():
-    from transfer.classifiers import ClassifierConfig, MotionClassifier, run_batched
+    from evaluation.classifiers import ClassifierConfig, MotionClassifier, run_batched
 
     torch.manual_seed(0)
     model = MotionClassifier(ClassifierConfig(channels=[8, 8], strides=[2, 1])).eval()

@@ -7,9 +7,7 @@ import math
 import pytest
 import torch
 
-from motioncore.representation import FEATURES
-from transfer.checkpoints import save_model
-from transfer.park.infer import (
+from evaluation.park.infer import (
     code_from_noise,
     code_from_reference,
     generate,
@@ -20,8 +18,8 @@ from transfer.park.infer import (
     stylize_noise,
     stylize_reference,
 )
-from transfer.park.losses import LossWeights, d_loss, g_loss
-from transfer.park.networks import (
+from evaluation.park.losses import LossWeights, d_loss, g_loss
+from evaluation.park.networks import (
     LEVEL1_GROUPS,
     LEVEL2_GROUPS,
     Discriminator,
@@ -31,7 +29,9 @@ from transfer.park.networks import (
     pool,
     unpool,
 )
-from transfer.park.train import ParkTrainConfig, train_park
+from evaluation.park.train import ParkTrainConfig, train_park
+from motioncore.representation import FEATURES
+from transfer.checkpoints import save_model
 
 D = FEATURES.dim
 SMALL = {"channels": [8, 16, 32], "window": 16}

@@ -1,9 +1,7 @@
 import pytest
 import torch
 
-from motioncore.representation import FEATURES
-from motioncore.skeleton import CANONICAL
-from transfer.stgcn import (
+from evaluation.stgcn import (
     GRAPH_CHANNELS,
     GraphConv,
     STGCNBlock,
@@ -16,6 +14,8 @@ from transfer.stgcn import (
     partition_labels,
     pooled_graph,
 )
+from motioncore.representation import FEATURES
+from motioncore.skeleton import CANONICAL
 
 NAMES = CANONICAL.skeleton.names
 

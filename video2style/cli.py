@@ -323,7 +323,7 @@ def cmd_train_park(args) -> None:
 
     import torch
 
-    from transfer.park.train import ParkTrainConfig, train_park
+    from evaluation.park.train import ParkTrainConfig, train_park
 
     explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed", "ds_decay_steps") if getattr(args, k) is not None}
     config = ParkTrainConfig(**explicit)
@@ -342,7 +342,7 @@ def cmd_train_park(args) -> None:
 def cmd_train_classifier(args) -> None:
     import torch
 
-    from transfer.classifiers import ClassifierTrainConfig, train_classifier
+    from evaluation.classifiers import ClassifierTrainConfig, train_classifier
 
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -571,7 +571,7 @@ def build_parser() -> argparse.ArgumentParser:
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
     for name in ("batch_size", "window", "seed", "ds_decay_steps"):
         tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
-                        help="default: see transfer.park.train.ParkTrainConfig; a resumed run keeps its own")
+                        help="default: see evaluation.park.train.ParkTrainConfig; a resumed run keeps its own")
     tp.add_argument("--lambda-ds", type=float, default=None,
                     help="weight of the diversity-sensitive loss (default 1, as in the paper)")
     tp.add_argument("--init", type=Path, default=None,

@@ -1,4 +1,4 @@
-"""``video2style evaluate``: the Bandai-2 protocol (:mod:`transfer.evaluation`) over the project's methods.
+"""``video2style evaluate``: the Bandai-2 protocol (:mod:`evaluation.protocol`) over the project's methods.
 
 Methods (names as on the command line):
 
@@ -129,8 +129,8 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
                   style_cache: Path | None = None) -> tuple[dict, dict]:
     """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
     the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting)."""
+    from evaluation.protocol import identity_transfer
     from transfer.dataset import MotionDataset
-    from transfer.evaluation import identity_transfer
     from transfer.style import StyleConfig
 
     unknown = [n for n in names if n not in METHODS]
@@ -143,7 +143,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
         if name == "identity":
             methods[name] = identity_transfer
         elif name in ("stgcn", "stgcn-raw"):
-            from transfer.park.infer import park_method
+            from evaluation.park.infer import park_method
             from video2style.park_apply import load_stylizer
 
             method = park_method(load_stylizer(stgcn_weights), seed)
@@ -170,7 +170,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
              split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
              style_cache: Path | None = None) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines."""
-    from transfer.evaluation import format_table, run_protocol
+    from evaluation.protocol import format_table, run_protocol
     from transfer.style import StyleConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():

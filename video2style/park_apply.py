@@ -27,7 +27,7 @@ from video2style.pipeline import (
 
 @lru_cache(maxsize=2)
 def load_stylizer(path: Path | None = None):
-    from transfer.park.infer import load_park
+    from evaluation.park.infer import load_park
 
     return load_park(path or weights_path("park_stylizer.safetensors"))
 
@@ -62,7 +62,7 @@ class StgcnRequest:
 
 def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> list[tuple[torch.Tensor, str]]:
     """``[(code (style_dim,), tag)]`` for the request."""
-    from transfer.park.infer import code_from_noise, code_from_reference
+    from evaluation.park.infer import code_from_noise, code_from_reference
 
     request.validate(list(model.config.domains))
     if request.reference is not None:
@@ -87,7 +87,7 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
 
     With ``clean`` the feet are cleaned by IK; ``skating``, if given, receives each output's skating ratios.
     """
-    from transfer.park.infer import generate
+    from evaluation.park.infer import generate
 
     content = clip.canonical
     x = (encode(content) - model.mean) / model.std

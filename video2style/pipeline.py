@@ -314,8 +314,8 @@ def style_config(style):
 
 def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
     """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
+    from evaluation.metrics import foot_skating_ratio
     from motioncore.cleanup import cleanup_feet
-    from transfer.metrics import foot_skating_ratio
 
     cleaned = cleanup_feet(motion, reference=content)
     return cleaned, {"skating_before": foot_skating_ratio(motion.global_positions(), motion.fps),

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import torch
 
+from evaluation.metrics import foot_skating_ratio, frechet_distance
 from motioncore.render import Panel, render_video
 from motioncore.representation import decode, decode_positions
 from motioncore.skeleton import CANONICAL
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
 from transfer.dataset import MotionDataset
-from transfer.metrics import foot_skating_ratio, frechet_distance
 from transfer.sampling import generate
 from transfer.scheduler import DiffusionScheduler
 
@@ -91,7 +91,7 @@ def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset,
            "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
            "skating_real": foot_skating_ratio(pos_real)}
     if classifier is not None:
-        from transfer.classifiers import run_batched
+        from evaluation.classifiers import run_batched
 
         def feats(xs):
             return run_batched(classifier, [classifier.standardize(x * std + mean) for x in xs], "features")

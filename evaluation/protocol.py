@@ -15,7 +15,7 @@ features normalised with the cache's statistics. :func:`run_protocol` reports pe
   test originals and of the generated set (depends on the set sizes: compare equal protocols);
 - ``cra`` / ``sra``: content / style classifier accuracy against the content clip's content and
   the target style;
-- ``skating``: :func:`transfer.metrics.foot_skating_ratio` of the generated motions' decoded
+- ``skating``: :func:`evaluation.metrics.foot_skating_ratio` of the generated motions' decoded
   positions (the reference row gives the real test clips' ratio under the same rule);
 - ``contact_agreement``: foot contact agreement between each content clip and its output;
 - ``sec_per_transfer``: mean wall time of one ``transfer`` call.
@@ -31,20 +31,20 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from motioncore.representation import decode_positions
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.classifiers import (
+from evaluation.classifiers import (
     MotionClassifier,
     default_weights,
     load_classifier,
     run_batched,
 )
-from transfer.dataset import ClipRecord, MotionDataset
-from transfer.metrics import (
+from evaluation.metrics import (
     foot_contact_agreement,
     foot_skating_ratio,
     frechet_distance,
 )
+from motioncore.representation import decode_positions
+from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.dataset import ClipRecord, MotionDataset
 
 Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
 

@@ -15,9 +15,9 @@ from pathlib import Path
 import torch
 from safetensors.torch import load_file
 
+from evaluation.park.networks import ParkConfig, ParkModel
 from motioncore.representation import FEATURES, decode_positions
 from transfer.checkpoints import load_config
-from transfer.park.networks import ParkConfig, ParkModel
 
 ROOT_SLICES = (FEATURES.root_rvel, FEATURES.root_lvel)
 
@@ -26,7 +26,7 @@ def load_park(path: Path | str) -> ParkModel:
     """G, E, F from safetensors (config in the metadata; nothing is unpickled), in eval mode."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with transfer.park.train.train_park")
+        raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with evaluation.park.train.train_park")
     try:
         model = ParkModel(load_config(path, ParkConfig))
         model.load_state_dict(load_file(str(path)))
@@ -95,7 +95,7 @@ def mix(model: ParkModel, content: torch.Tensor, code_a: torch.Tensor, code_b: t
 
 
 def park_method(model: ParkModel, seed: int = 0):
-    """A :mod:`transfer.evaluation` method: the style example's code (E, domain = the style label) applied to the content.
+    """A :mod:`evaluation.protocol` method: the style example's code (E, domain = the style label) applied to the content.
 
     ``seed`` seeds torch's global generator once per call; the reference path itself is deterministic.
     """

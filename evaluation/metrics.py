@@ -61,7 +61,7 @@ def recognition_accuracy(classifier, motions: Sequence[torch.Tensor], labels: Se
     on raw features). CRA is this with the content classifier and the content clips' labels, SRA
     with the style classifier and the target styles.
     """
-    from transfer.classifiers import run_batched
+    from evaluation.classifiers import run_batched
 
     if len(motions) != len(labels):
         raise ValueError(f"recognition_accuracy: {len(motions)} motions but {len(labels)} labels")

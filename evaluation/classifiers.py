@@ -1,6 +1,6 @@
 """ST-GCN content and style classifiers for Bandai-2 (evaluation after Hu et al. 2024 §4.2).
 
-One architecture for both targets: ST-GCN blocks (``transfer/stgcn.py``) over the canonical
+One architecture for both targets: ST-GCN blocks (``evaluation/stgcn.py``) over the canonical
 skeleton graph, a masked global average over frames and joints (:meth:`MotionClassifier.features`,
 the vector FMD uses) and a linear layer (:meth:`MotionClassifier.logits`).
 
@@ -30,12 +30,7 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.nn import functional as F
 
-from motioncore.representation import FEATURES
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.checkpoints import load_config, save_model
-from transfer.dataset import MotionDataset
-from transfer.shipped import weights_dir
-from transfer.stgcn import (
+from evaluation.stgcn import (
     GRAPH_CHANNELS,
     STGCNBlock,
     canonical_adjacency,
@@ -43,6 +38,11 @@ from transfer.stgcn import (
     masked_mean,
     valid_to_mask,
 )
+from motioncore.representation import FEATURES
+from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.checkpoints import load_config, save_model
+from transfer.dataset import MotionDataset
+from transfer.shipped import weights_dir
 from transfer.training import Trainer
 
 TARGETS = {"content": BANDAI2_CONTENTS, "style": STYLES}
@@ -158,7 +158,7 @@ def load_classifier(path: Path | str) -> MotionClassifier:
     """A classifier from safetensors (config in the metadata; nothing is unpickled), in eval mode."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no classifier weights; train them with transfer.classifiers.train_classifier")
+        raise FileNotFoundError(f"{path}: no classifier weights; train them with evaluation.classifiers.train_classifier")
     model = MotionClassifier(load_config(path, ClassifierConfig))
     model.load_state_dict(load_file(str(path)))
     return model.eval()
