@@ -22,9 +22,9 @@ import cv2
 import numpy as np
 
 from motioncore import quat
-from motioncore.files import atomic_output
 from motioncore.kinematics import fk
 from motioncore.motion import Motion
+from motioncore.mp4 import write_mp4
 from motioncore.skeleton import CANONICAL
 
 SKIN = (140, 170, 215)  # BGR
@@ -220,14 +220,4 @@ def render_frames(motion: Motion, cam: Camera) -> Iterator[np.ndarray]:
 
 def write_humanoid_video(motion: Motion, cam: Camera, path: str | os.PathLike) -> Path:
     """Write the render of ``motion`` (at its own fps) to an mp4 (mp4v) atomically."""
-    out = Path(path)
-    with atomic_output(out, ".mp4") as tmp:
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(motion.fps), (cam.width, cam.height))
-        try:
-            if not writer.isOpened():
-                raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
-            for frame in render_frames(motion, cam):
-                writer.write(frame)
-        finally:
-            writer.release()
-    return out
+    return write_mp4(render_frames(motion, cam), path, motion.fps, (cam.width, cam.height))

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 import torch
 
-from motioncore.files import atomic_output
+from motioncore.mp4 import write_mp4
 
 BACKGROUND = (240, 238, 234)
 GRID = (150, 150, 150)
@@ -247,19 +247,6 @@ def render_frame(panels: Sequence[Panel], t: int, size: tuple[int, int] = (480, 
     return np.concatenate(imgs, axis=1)
 
 
-def check_video(tmp: str | os.PathLike, frames: int, out: str | os.PathLike) -> None:
-    """Raise OSError naming ``out`` unless the video at ``tmp`` holds ``frames`` frames: OpenCV's writer only
-    warns when a frame cannot be written (a full disk), so a short file would pass for a finished one."""
-    import errno
-
-    cap = cv2.VideoCapture(os.fspath(tmp))
-    got = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
-    cap.release()
-    if got < frames:
-        raise OSError(errno.EIO, f"the video was not written completely ({got} of {frames} frames; is the disk full?)",
-                      os.fspath(out))
-
-
 def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: float, size: tuple[int, int] = (480, 480), progress: bool = True) -> Path:
     """Write all frames (the longest panel's length) to an MPEG-4 ``.mp4`` atomically; returns the path.
 
@@ -274,16 +261,11 @@ def render_video(panels: Sequence[Panel], out_path: str | os.PathLike, fps: floa
         raise ValueError("expected at least one panel, got 0")
     out = Path(out_path)
     n = max(p.num_frames for p in panels)
-    with atomic_output(out, out.suffix or ".mp4") as tmp:
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (w * len(panels), h))
-        try:
-            if not writer.isOpened():
-                raise RuntimeError(f"{out}: OpenCV cannot open an mp4v video writer")
-            for t in range(n):
-                writer.write(render_frame(panels, t, (w, h), fps))
-                if progress and (t + 1 == n or t % max(1, n // 10) == 0):
-                    print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
-        finally:
-            writer.release()
-        check_video(tmp, n, out)
-    return out
+
+    def frames():
+        for t in range(n):
+            yield render_frame(panels, t, (w, h), fps)
+            if progress and (t + 1 == n or t % max(1, n // 10) == 0):
+                print(f"\rrendering {out.name}: frame {t + 1}/{n}", end="\n" if t + 1 == n else "", file=sys.stderr, flush=True)
+
+    return write_mp4(frames(), out, fps, (w * len(panels), h))

@@ -10,9 +10,7 @@ end, so a failure leaves neither.
 from __future__ import annotations
 
 import os
-import queue
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -20,23 +18,19 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
+from lifting.blazepose.landmarks import POSE_CONNECTIONS
 from lifting.blazepose.tracker import PoseTracker
 from lifting.camera import DEFAULT_FOV_DEG
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.lift import Progress, _Reporter, lift_video
 from lifting.video import iter_frames, prefetched
 from motioncore.files import publish
+from motioncore.mp4 import Mp4Writer
 
 if TYPE_CHECKING:
     from lifting.reconstruct import LiftResult
 
 PREVIEW_HEIGHT = 480
-# BlazePose's landmark graph (MediaPipe POSE_CONNECTIONS), body part only (no face outline).
-CONNECTIONS = (
-    (11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (17, 19), (12, 14), (14, 16), (16, 18), (16, 20),
-    (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28), (27, 29), (28, 30),
-    (29, 31), (30, 32), (27, 31), (28, 32), (0, 7), (0, 8),
-)  # fmt: skip
 _LEFT, _RIGHT, _MID = (40, 40, 215), (200, 120, 20), (40, 200, 40)  # BGR, as motioncore.render
 
 
@@ -118,7 +112,7 @@ def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool)
     """BlazePose's skeleton ``pts (33, 2)`` (pixels of the original frame) onto ``img`` in place."""
     p = np.round(pts * scale * 16).astype(np.int64)
     thick = max(2, img.shape[0] // 200)
-    for a, b in CONNECTIONS:
+    for a, b in POSE_CONNECTIONS:
         side = _LEFT if a % 2 and b % 2 and a > 10 else _RIGHT if a % 2 == 0 and b % 2 == 0 and a > 10 else _MID
         colour = tuple(int(c * 0.5 + 64) for c in side) if faded else side
         cv2.line(img, tuple(map(int, p[a])), tuple(map(int, p[b])), colour, thick, cv2.LINE_AA, 4)
@@ -136,43 +130,9 @@ def _frames(video: Path, n: int, first: int = 0):
         yield i - first, frame
 
 
-class _Writer:
-    """An mp4v ``cv2.VideoWriter`` fed by a helper thread (encoding overlaps the drawing)."""
-
-    def __init__(self, path: str, fps: float, size: tuple[int, int], depth: int = 4):
-        self.path = path
-        self.writer = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
-        if not self.writer.isOpened():
-            raise ValueError(f"{path}: OpenCV cannot open an mp4v video writer for the preview")
-        self.frames: queue.Queue = queue.Queue(maxsize=depth)
-        self.error: BaseException | None = None
-        self.thread = threading.Thread(target=self._run, name="preview-encoder", daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while (frame := self.frames.get()) is not None:
-            if self.error is None:
-                try:
-                    self.writer.write(frame)
-                except Exception as exc:  # noqa: BLE001 - re-raised by write() or close()
-                    self.error = exc
-
-    def write(self, frame: np.ndarray) -> None:
-        if self.error is not None:
-            raise self.error
-        self.frames.put(frame)
-
-    def close(self, abort: bool = False) -> None:
-        self.frames.put(None)
-        self.thread.join()
-        self.writer.release()
-        if self.error is not None and not abort:
-            raise self.error
-
-
 def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress) -> str:
     """Render the preview to a temporary file beside ``out``; returns its path (the caller renames)."""
-    from motioncore.render import Panel, check_video, render_frame
+    from motioncore.render import Panel, render_frame
     from motioncore.skeleton import CANONICAL
 
     tr = lifted.track
@@ -191,9 +151,8 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     writer = None
     bar = _Reporter(progress, n, f"{out.name}: preview")
     try:
-        writer = _Writer(tmp, float(tr.fps), size)
+        writer = Mp4Writer(tmp, float(tr.fps), size, name=out)
         first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)
-        written = 0
         for i, frame in prefetched(_frames(video, n, first)):  # decoding overlaps the drawing
             left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
             inside = lifted.start <= i < lifted.stop
@@ -204,10 +163,8 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
             cv2.putText(left, label, (8, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (20, 20, 20), 1, cv2.LINE_AA)
             right = render_frame([panel], i, (height, height), tr.fps)
             writer.write(np.concatenate([left, right], axis=1))
-            written += 1
             bar.update()
         writer.close()
-        check_video(tmp, written, out)
     except BaseException:
         if writer is not None:
             writer.close(abort=True)

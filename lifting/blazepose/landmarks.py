@@ -28,6 +28,12 @@ POSE_LANDMARKS = (
     "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle", "left_heel",
     "right_heel", "left_foot_index", "right_foot_index",
 )  # fmt: skip
+# BlazePose's landmark graph (MediaPipe's POSE_CONNECTIONS), body part only (no face outline).
+POSE_CONNECTIONS = (
+    (11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (17, 19), (12, 14), (14, 16), (16, 18), (16, 20),
+    (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28), (27, 29), (28, 30),
+    (29, 31), (30, 32), (27, 31), (28, 32), (0, 7), (0, 8),
+)  # fmt: skip
 
 
 @dataclass

@@ -12,6 +12,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from motioncore.mp4 import write_mp4
+
 _SKIN = (150, 180, 220)  # BGR
 _SHIRT = (60, 60, 200)
 _TROUSERS = (120, 70, 40)
@@ -94,18 +96,13 @@ def write_walking_clip(
     path: str | Path, width: int = 1280, height: int = 720, n_frames: int = 60, fps: float = 30.0
 ) -> Path:
     """Write an mp4 (mp4v) of the figure walking in place while drifting sideways."""
-    path = Path(path)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (width, height))
-    if not writer.isOpened():
-        raise RuntimeError(f"expected OpenCV to open a video writer for {path}, got a closed writer")
-    try:
+    def frames():
         for i in range(n_frames):
             phase = 2 * math.pi * i / 30.0
             cx = width / 2 + 0.15 * width * math.sin(2 * math.pi * i / max(n_frames, 1))
-            writer.write(humanoid_frame(width, height, phase, cx))
-    finally:
-        writer.release()
-    return path
+            yield humanoid_frame(width, height, phase, cx)
+
+    return write_mp4(frames(), path, fps, (width, height))
 
 
 def _pt(p: np.ndarray) -> tuple[int, int]:
