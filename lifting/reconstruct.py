@@ -203,17 +203,10 @@ def _orient(
     theta = facing_angle(quat.mul_vec(up, rel_t[:n0]))
     theta0 = math.atan2(float(torch.sin(theta).mean()), float(torch.cos(theta).mean()))
     turn = quat.mul(quat.from_yaw(torch.tensor(-theta0, dtype=torch.float64)), up)
-    rel_w, root_w = (
-        quat.mul_vec(turn, rel_t).numpy(),
-        quat.mul_vec(turn, root_t).numpy(),
-    )
+    turned = lambda q: (quat.mul_vec(q, rel_t).numpy(), quat.mul_vec(q, root_t).numpy())
     if level_floor:
-        turn = quat.mul(floor_tilt(rel_w, root_w, fps), turn)
-        rel_w, root_w = (
-            quat.mul_vec(turn, rel_t).numpy(),
-            quat.mul_vec(turn, root_t).numpy(),
-        )
-    return turn, rel_w, root_w
+        turn = quat.mul(floor_tilt(*turned(turn), fps), turn)
+    return turn, *turned(turn)
 
 
 def _assemble(fitted: Motion, turn: torch.Tensor, root: np.ndarray) -> Motion:
