@@ -59,7 +59,7 @@ def fake_pipeline(monkeypatch):
 
     monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
     monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
-    monkeypatch.setattr("video2style.pipeline.load_models", lambda: type("M", (), {"prior": None})())
+    monkeypatch.setattr("video2style.pipeline.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style.style_model", lambda prior, style: None)
     return calls

@@ -9,6 +9,7 @@ from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, decode, encode, facing_angle
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
+from transfer.device import model_device
 from transfer.scheduler import DiffusionScheduler
 from transfer.style import StyleConfig, neutralize, stylize
 from transfer.windows import crossfade, window_starts
@@ -77,13 +78,14 @@ class Reading:
 
 
 def read_motion(motion_encoder, text_encoder, x: torch.Tensor) -> Reading:
-    """The :class:`Reading` of a normalised motion ``(T, D)`` (its first 8 s) in the motion encoder's space."""
+    """The :class:`Reading` of a normalised motion ``(T, D)`` (its first 8 s) in the motion encoder's space
+    (the encoder runs on its own device; the reading is made on the CPU)."""
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"read_motion: expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
     emb = text_encoder.encode([caption(c, s) for c, s in pairs])
     with torch.no_grad():
-        z = motion_encoder(x[None, : min(x.shape[0], 160)])[0]
+        z = motion_encoder(x[None, : min(x.shape[0], 160)].to(model_device(motion_encoder)))[0].cpu()
     sims = emb @ z
     p = torch.softmax(sims / ENCODER_TEMPERATURE, 0).reshape(len(BANDAI2_CONTENTS), len(STYLES))
     p_content, p_style = p.sum(1), p.sum(0)
@@ -126,31 +128,37 @@ def _in_batches(fn, parts: torch.Tensor, *extra: torch.Tensor) -> list[torch.Ten
 @torch.no_grad()
 def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, config: StyleConfig, seed: int = 0,
                         window: int = 80, overlap: int = 20) -> torch.Tensor:
-    """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``."""
+    """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``.
+    Runs on the prior's device; the result is on ``x``'s."""
+    device = model_device(prior)
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
-    starts, parts = _windows(x, window, overlap)
+    starts, parts = _windows(x.to(device), window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
     parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, config, gen, config.neutralize_step),
-                        parts, neutral_text.expand(len(starts), -1))
-    return crossfade(parts, starts, x.shape[0])
+                        parts, neutral_text.to(device).expand(len(starts), -1))
+    return crossfade(parts, starts, x.shape[0]).to(x.device)
 
 
 @torch.no_grad()
 def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, step: int, seed: int = 0,
                          neutral_text: torch.Tensor | None = None, window: int = 80, overlap: int = 20) -> torch.Tensor:
-    """Stylise normalised content features ``(T, D)``; ``neutral_text (1, E)`` first neutralises a styled clip."""
+    """Stylise normalised content features ``(T, D)``; ``neutral_text (1, E)`` first neutralises a styled clip.
+    Runs on the models' device (``model`` and ``prior`` on one); the result is on ``x``'s."""
+    device = model_device(model)
+    out_device, x = x.device, x.to(device)
     if neutral_text is not None and config.neutralize_step > 0:
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts, parts = _windows(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
     chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), parts)
-    return crossfade(chunks, starts, x.shape[0])
+    return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
 def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, config: StyleConfig,
                        step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True) -> Motion:
-    """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path."""
+    """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
+    any device; the motion and ``mean``/``std`` on the CPU)."""
     feats = encode(content)
     out = apply_style_features(model, prior, (feats - mean) / std, config, step, seed, neutral_text) * std + mean
     p0 = content.global_positions()[:1].double()

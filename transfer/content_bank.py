@@ -49,7 +49,8 @@ class ContentBank:
 @torch.no_grad()
 def make_content_bank(prior, text_encoder, out_path: Path, per_content: int = 4, length: int = 80, steps: int = 50,
                       guidance: float = 2.5, seed: int = 0) -> int:
-    """Sample ``per_content`` neutral clips for each Bandai-2 content; returns the number written."""
+    """Sample ``per_content`` neutral clips for each Bandai-2 content (on the prior's device); returns the number
+    written."""
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
     gen = torch.Generator().manual_seed(seed)
     feats, records = [], []
@@ -58,6 +59,6 @@ def make_content_bank(prior, text_encoder, out_path: Path, per_content: int = 4,
         feats.append(generate(prior, scheduler, text, length, steps, guidance, gen))
         records += [{"caption": content_caption(content), "content": content, "style": "normal", "length": length}] * per_content
     with atomic_output(out_path, ".tmp") as tmp:
-        save_file({"features": torch.cat(feats).to(torch.float16).contiguous()}, str(tmp),
+        save_file({"features": torch.cat(feats).to("cpu", torch.float16).contiguous()}, str(tmp),
                   metadata={"records": json.dumps(records), "about": "samples of the video2style prior (project-made)"})
     return len(records)

@@ -8,16 +8,21 @@ from torch import nn
 
 
 class LoRALinear(nn.Module):
-    """``base(x) + scale * B(A(x))`` with ``A (r, in)``, ``B (out, r)``; B starts at zero (no change)."""
+    """``base(x) + scale * B(A(x))`` with ``A (r, in)``, ``B (out, r)``; B starts at zero (no change).
+
+    The adapters live on the base layer's device; A's random start is drawn on the CPU (torch's global
+    generator, as seeded by the caller), so a seed gives the same start on any device.
+    """
 
     def __init__(self, base: nn.Linear, rank: int, alpha: float):
         super().__init__()
         self.base = base
         self.rank = rank
         self.scale = alpha / rank
-        self.lora_a = nn.Parameter(torch.empty(rank, base.in_features))
-        self.lora_b = nn.Parameter(torch.zeros(base.out_features, rank))
-        nn.init.kaiming_uniform_(self.lora_a, a=math.sqrt(5))
+        a = torch.empty(rank, base.in_features)
+        nn.init.kaiming_uniform_(a, a=math.sqrt(5))
+        self.lora_a = nn.Parameter(a.to(base.weight.device))
+        self.lora_b = nn.Parameter(torch.zeros(base.out_features, rank, device=base.weight.device))
         self.gain = 1.0  # multiplies the adapters' output (1: as learned, 0: the base model)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -46,8 +51,8 @@ def add_lora(model: nn.Module, rank: int = 8, alpha: float = 8.0, targets: tuple
 
 
 def lora_state(model: nn.Module) -> dict[str, torch.Tensor]:
-    """Only the adapter tensors, keyed by module path."""
-    return {k: v.detach().clone() for k, v in model.state_dict().items() if k.endswith(("lora_a", "lora_b"))}
+    """Only the adapter tensors, keyed by module path, copied to the CPU (what a style file holds)."""
+    return {k: v.detach().cpu().clone() for k, v in model.state_dict().items() if k.endswith(("lora_a", "lora_b"))}
 
 
 def load_lora_state(model: nn.Module, tensors: dict[str, torch.Tensor]) -> None:

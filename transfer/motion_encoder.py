@@ -21,6 +21,7 @@ from torch.nn import functional as F
 from motioncore.representation import FEATURES
 from transfer.checkpoints import load_config, save_model
 from transfer.dataset import MotionDataset
+from transfer.device import model_device, resolve_device
 from transfer.layers import Block, MotionEmbedding
 from transfer.prior import caption_embeddings, load_prior
 from transfer.scheduler import DiffusionScheduler
@@ -55,7 +56,7 @@ class MotionEncoder(nn.Module):
             raise ValueError(f"MotionEncoder: expected (B, T, {self.config.feature_dim}), got {tuple(x.shape)}")
         b = x.shape[0]
         h = torch.cat([self.token.expand(b, -1, -1), self.embed(x, offset=1)], dim=1)
-        full = None if valid is None else torch.cat([torch.ones(b, 1, dtype=torch.bool), valid], dim=1)
+        full = None if valid is None else torch.cat([torch.ones(b, 1, dtype=torch.bool, device=x.device), valid], dim=1)
         for blk in self.blocks:
             h = blk(h, full)
         return F.normalize(self.head(self.norm(h[:, 0])), dim=-1)
@@ -85,29 +86,39 @@ def alignment_losses(z: torch.Tensor, text: torch.Tensor, same: torch.Tensor, te
 
 
 def train_motion_encoder(data_dir: Path, prior_path: Path, out_dir: Path, config: EncoderTrainConfig, max_minutes: float,
-                         max_steps: int = 10**9, explicit: dict | None = None, progress: bool = True) -> Trainer:
+                         max_steps: int = 10**9, explicit: dict | None = None, progress: bool = True,
+                         device: str = "cpu") -> Trainer:
+    """Train (or resume) the motion encoder on ``device`` (:func:`transfer.device.resolve_device`), with the
+    prior there too; the model starts from the same seeded weights on any device, batches and noise are drawn
+    on the CPU."""
+    device = resolve_device(device)
     torch.manual_seed(config.seed)
     data = MotionDataset(data_dir, "train")
-    text = caption_embeddings(data)
+    text = caption_embeddings(data).to(device)
     captions = [r.caption for r in data.records]
     prior, _, _ = load_prior(prior_path)
     pc = prior.config
     model = MotionEncoder(MotionEncoderConfig(width=pc.width, layers=pc.layers, heads=pc.heads, ff=pc.ff))
     model.embed.load_state_dict(prior.embed.state_dict())
     model.embed.requires_grad_(False)
+    model.to(device)
+    prior.to(device)
     trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema)
     trainer.resume(explicit or {})
     gen = torch.Generator().manual_seed(config.seed * 7919 + trainer.step)
     scheduler = DiffusionScheduler(pc.num_train_steps)
 
-    def loss_fn(m, step):
+    def loss_fn(m, step):  # the batch on the model's device; random numbers drawn on the CPU
+        on = model_device(m)
         x, valid, idx = data.sample_windows(config.batch_size, config.window, gen)
+        x, valid = x.to(on), valid.to(on)
         if torch.rand((), generator=gen) < config.x0_aug:
-            t = torch.randint(config.max_aug_step, (x.shape[0],), generator=gen)
+            t = torch.randint(config.max_aug_step, (x.shape[0],), generator=gen).to(on)
             with torch.no_grad():
-                x = prior(scheduler.add_noise(x, torch.randn(x.shape, generator=gen), t), t, text[idx], valid) * valid[..., None]
+                noise = torch.randn(x.shape, generator=gen).to(on)
+                x = prior(scheduler.add_noise(x, noise, t), t, text[idx], valid) * valid[..., None]
         z = m(x, valid)
-        same = torch.tensor([[captions[i] == captions[j] for j in idx] for i in idx])
+        same = torch.tensor([[captions[i] == captions[j] for j in idx] for i in idx], device=on)
         align, nce = alignment_losses(z, text[idx], same, config.temperature)
         return align + config.nce_weight * nce, {"align": align.item(), "nce": nce.item()}
 

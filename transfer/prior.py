@@ -10,6 +10,7 @@ import torch
 from transfer.checkpoints import save_model
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
+from transfer.device import model_device, resolve_device
 from transfer.scheduler import DiffusionScheduler
 from transfer.text_encoder import default_text_encoder
 from transfer.training import Trainer
@@ -43,10 +44,14 @@ def masked_mse(a: torch.Tensor, b: torch.Tensor, valid: torch.Tensor) -> torch.T
 
 
 def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator):
-    """x0-prediction loss at random steps, plus a loss on frame-to-frame differences."""
+    """x0-prediction loss at random steps, plus a loss on frame-to-frame differences: ``x0 (B, T, D)``,
+    ``valid (B, T)``, ``text (B, E)``, ``drop (B,)``, moved to the model's device; the steps and the noise are
+    drawn on the CPU from ``generator``."""
+    device = model_device(model)
+    x0, valid, text, drop = x0.to(device), valid.to(device), text.to(device), drop.to(device)
     b = x0.shape[0]
-    t = torch.randint(scheduler.num_train_steps, (b,), generator=generator)
-    x_t = scheduler.add_noise(x0, torch.randn(x0.shape, generator=generator), t)
+    t = torch.randint(scheduler.num_train_steps, (b,), generator=generator).to(device)
+    x_t = scheduler.add_noise(x0, torch.randn(x0.shape, generator=generator).to(device), t)
     pred = model(x_t, t, text, valid, drop=drop)
     rec = masked_mse(pred, x0, valid)
     vel = masked_mse(pred[:, 1:] - pred[:, :-1], x0[:, 1:] - x0[:, :-1], valid[:, 1:] & valid[:, :-1])
@@ -54,11 +59,15 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
 
 
 def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_minutes: float, max_steps: int = 10**9,
-                explicit: dict | None = None, progress: bool = True) -> Trainer:
+                explicit: dict | None = None, progress: bool = True, device: str = "cpu") -> Trainer:
+    """Train (or resume) the prior on ``device`` (:func:`transfer.device.resolve_device`); the model starts
+    from the same seeded weights on any device, batches and noise are drawn on the CPU."""
+    device = resolve_device(device)
     torch.manual_seed(config.seed)
     data = MotionDataset(data_dir, "train")
-    text = caption_embeddings(data)
+    text = caption_embeddings(data).to(device)
     model = Denoiser(DenoiserConfig(width=config.width, layers=config.layers, heads=config.heads, ff=config.ff, dropout=config.dropout))
+    model.to(device)
     trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema)
     trainer.resume(explicit or {})
     gen = torch.Generator().manual_seed(config.seed * 1000003 + trainer.step)

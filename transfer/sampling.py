@@ -1,8 +1,11 @@
 """Sampling loops over a denoiser and a scheduler: text-to-motion, and editing from a given step."""
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import torch
 
+from transfer.device import model_device
 from transfer.scheduler import DiffusionScheduler
 
 
@@ -15,6 +18,29 @@ def predict_x0(model, x_t, t, text=None, valid=None, guidance: float = 1.0):
     return uncond + guidance * (cond - uncond)
 
 
+def denoising_steps(model, scheduler: DiffusionScheduler, x_t, start: int, num_steps: int, text=None, valid=None,
+                    guidance: float = 1.0, inpaint: tuple[torch.Tensor, list[slice]] | None = None, eta: float = 0.0,
+                    generator: torch.Generator | None = None) -> Iterator[tuple[int, torch.Tensor]]:
+    """The DDIM loop of :func:`denoise`, one step at a time: yields ``(t, x_t)``, the sample ``(B, T, D)`` that
+    enters each step ``t`` of the schedule (``start`` down to 0), then ``(-1, x0)``, the result.
+
+    Lazy: each prediction is made when the next item is asked for, so a consumer that needs only the steps'
+    inputs (:func:`transfer.style.reconstruction_loss`) stops before the last one. The caller chooses
+    gradients (:func:`denoise` runs it under ``torch.no_grad``); tensors stay on ``x_t``'s device.
+    """
+    for t in scheduler.set_timesteps(num_steps, start).tolist():
+        yield t, x_t
+        x0 = predict_x0(model, x_t, torch.full((x_t.shape[0],), t, device=x_t.device), text, valid, guidance)
+        if inpaint is not None:
+            x0 = overwrite(x0, *inpaint)
+        x_t = scheduler.step(x0, t, x_t, eta=eta, generator=generator)
+        if inpaint is not None:
+            prev = scheduler.previous(t)
+            scale = scheduler.alpha(prev, x_t).sqrt() if prev >= 0 else 1.0
+            x_t = overwrite(x_t, inpaint[0] * scale, inpaint[1])
+    yield -1, x_t
+
+
 @torch.no_grad()
 def denoise(model, scheduler: DiffusionScheduler, x_t, start: int, num_steps: int, text=None, valid=None,
             guidance: float = 1.0, inpaint: tuple[torch.Tensor, list[slice]] | None = None, eta: float = 0.0,
@@ -23,17 +49,11 @@ def denoise(model, scheduler: DiffusionScheduler, x_t, start: int, num_steps: in
 
     ``inpaint = (reference (B, T, D), slices)``: at every step the x0 prediction takes the
     reference's values on those feature slices, and the noise on them is zero (Hu et al. eq. 4-5).
+    ``text (B, E)``, ``valid (B, T)`` and the reference are on ``x_t``'s device, where the result is.
     """
-    for t in scheduler.set_timesteps(num_steps, start).tolist():
-        x0 = predict_x0(model, x_t, torch.full((x_t.shape[0],), t), text, valid, guidance)
-        if inpaint is not None:
-            x0 = overwrite(x0, *inpaint)
-        x_t = scheduler.step(x0, t, x_t, eta=eta, generator=generator)
-        if inpaint is not None:
-            prev = scheduler.previous(t)
-            scale = scheduler.alphas_cumprod[prev].sqrt() if prev >= 0 else 1.0
-            x_t = overwrite(x_t, inpaint[0] * scale, inpaint[1])
-    return x_t
+    for _, x in denoising_steps(model, scheduler, x_t, start, num_steps, text, valid, guidance, inpaint, eta, generator):
+        pass  # the last item is the result
+    return x
 
 
 def overwrite(x: torch.Tensor, reference: torch.Tensor, slices: list[slice]) -> torch.Tensor:
@@ -48,12 +68,15 @@ def noise_keeping(scheduler, x: torch.Tensor, noise: torch.Tensor, k, keep: list
     """``x (*, T, D)`` noised to step ``k`` with ``noise``, except the feature slices ``keep`` (e.g. the root
     path), which are only scaled as the noise schedule scales a clean signal: what learning and applying a
     style start from."""
-    return overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alphas_cumprod[k].sqrt(), keep)
+    return overwrite(scheduler.add_noise(x, noise, k), x * scheduler.alpha(k, x).sqrt(), keep)
 
 
 @torch.no_grad()
 def generate(model, scheduler: DiffusionScheduler, text: torch.Tensor, length: int, num_steps: int = 50,
              guidance: float = 2.5, generator: torch.Generator | None = None) -> torch.Tensor:
-    """Text embeddings ``(B, E)`` -> normalised features ``(B, length, D)`` from pure noise."""
-    x = torch.randn(text.shape[0], length, model.config.feature_dim, generator=generator)
+    """Text embeddings ``(B, E)`` -> normalised features ``(B, length, D)`` from pure noise, on the model's device
+    (the noise is drawn on the CPU from ``generator``)."""
+    device = model_device(model)
+    text = text.to(device)
+    x = torch.randn(text.shape[0], length, model.config.feature_dim, generator=generator).to(device)
     return denoise(model, scheduler, x, scheduler.num_train_steps - 1, num_steps, text, guidance=guidance, generator=generator)

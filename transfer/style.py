@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import itertools
 import json
 import math
 import time
@@ -26,8 +27,9 @@ from tqdm import tqdm
 
 from motioncore.representation import FEATURES
 from transfer.captions import caption
+from transfer.device import model_device
 from transfer.lora import add_lora, load_lora_state, lora_state, set_gain
-from transfer.sampling import denoise, noise_keeping, overwrite
+from transfer.sampling import denoise, denoising_steps, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, StyleConfig
 
@@ -46,9 +48,9 @@ class Style:
         """Write atomically under a temporary name of its own (two writers never share one)."""
         from motioncore.files import atomic_output
 
-        tensors = {k: v.to(torch.float16).contiguous() for k, v in self.adapters.items()}
+        tensors = {k: v.to("cpu", torch.float16).contiguous() for k, v in self.adapters.items()}
         if self.example is not None:
-            tensors["example"] = self.example.float().contiguous()
+            tensors["example"] = self.example.to("cpu", torch.float32).contiguous()
         with atomic_output(path, ".tmp") as tmp:
             save_file(tensors, str(tmp), metadata={"video2style": json.dumps(self.meta)})
 
@@ -95,10 +97,11 @@ def file_sha256(path: Path) -> str:
 def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torch.Tensor, config: StyleConfig,
                generator: torch.Generator, step: int | None = None) -> torch.Tensor:
     """Neutral version ``(B, T, D)`` of normalised motions ``x (B, T, D)``, same path, text ``(B, E)``;
-    noised to ``step`` (default G, ``config.pair_step``) and denoised with the text."""
+    noised to ``step`` (default G, ``config.pair_step``) and denoised with the text. ``x`` and ``text`` are on
+    the prior's device; the noise is drawn on the CPU from ``generator`` and moved there."""
     g = config.pair_step if step is None else step
     n_steps = max(1, round(config.pair_steps * g / config.pair_step))
-    noise = torch.randn(x.shape, generator=generator)
+    noise = torch.randn(x.shape, generator=generator).to(x.device)
     x_g = noise_keeping(scheduler, x, noise, g, TRAJECTORY)
     return denoise(prior, scheduler, x_g, g, n_steps, text, guidance=config.guidance,
                    inpaint=(x, TRAJECTORY), generator=generator)
@@ -126,11 +129,12 @@ def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, config: Style
 
     ``config.apply_mode`` "difference" (needs ``prior``): ``x + scale * (style(y) - prior(y))`` from the same
     noisy ``y``; "regenerate": the style model's own result, guided with weight ``scale`` when a prior is given.
-    ``scale`` is ``config.style_scale`` (see :func:`transfer.apply.strength_settings`).
+    ``scale`` is ``config.style_scale`` (see :func:`transfer.apply.strength_settings`). ``x`` is on the models'
+    device; the noise is drawn on the CPU from ``generator`` and moved there.
     """
     k = config.transfer_step if step is None else step
     scale = config.style_scale
-    noise = torch.randn(x.shape, generator=generator)
+    noise = torch.randn(x.shape, generator=generator).to(x.device)
     y = noise_keeping(scheduler, x, noise, k, TRAJECTORY)
     n_steps = max(1, round(config.transfer_steps * k / config.transfer_step))
     if config.apply_mode == "difference":
@@ -155,7 +159,7 @@ def smooth_time(x: torch.Tensor, sigma: float) -> torch.Tensor:
     if sigma <= 0:
         return x
     radius = max(1, int(3 * sigma))
-    k = torch.exp(-0.5 * (torch.arange(-radius, radius + 1, dtype=x.dtype) / sigma) ** 2)
+    k = torch.exp(-0.5 * (torch.arange(-radius, radius + 1, dtype=x.dtype, device=x.device) / sigma) ** 2)
     k = (k / k.sum()).expand(x.shape[-1], 1, -1)
     padded = torch.nn.functional.pad(x.transpose(1, 2), (radius, radius), mode="replicate")
     return torch.nn.functional.conv1d(padded, k, groups=x.shape[-1]).transpose(1, 2)
@@ -176,10 +180,15 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     The budget is ``config.iterations``; with the same seed the adapters are the same on any machine, however
     busy. ``config.max_seconds`` (optional) caps the wall time; when it cuts learning short, ``meta["stopped_by"]``
     is ``"time"`` (see :func:`partial_reason`). ``show_bar``: a tqdm bar of iterations with an ETA.
+
+    Learning runs on the prior's device (the motion encoder must be on it too); random numbers come from a
+    seeded CPU generator, so the noise is the same on any device. The style's tensors are on the CPU.
     """
     if example.ndim != 2 or example.shape[1] != FEATURES.dim:
         raise ValueError(f"learn_style: expected an example (T, {FEATURES.dim}), got {tuple(example.shape)}")
     t0 = time.time()
+    device = model_device(prior)
+    example = example.to(device)
     gen = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
@@ -189,7 +198,8 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     if config.pair_generation:
         say("generating the style-neutral pair")
         with torch.no_grad():
-            pair = neutralize(prior, scheduler, example[None], text_encoder.encode([neutral_text]), config, gen)[0]
+            pair = neutralize(prior, scheduler, example[None], text_encoder.encode([neutral_text]).to(device), config,
+                              gen)[0]
     else:
         pair = example.clone()
 
@@ -204,7 +214,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
         raise ValueError("learn_style: the dataset has no neutral ('normal') clips for the semantic loss")
     target_captions = sorted({dataset.records[i].caption for i in neutral})
     styled = {c: f"{c}, {style_words} style" for c in target_captions}
-    target_emb = dict(zip(target_captions, text_encoder.encode([styled[c] for c in target_captions])))
+    target_emb = dict(zip(target_captions, text_encoder.encode([styled[c] for c in target_captions]).to(device)))
     steps = scheduler.set_timesteps(config.transfer_steps, config.transfer_step).tolist()
     history = []
     it, stopped_by = 0, "iterations"
@@ -219,18 +229,18 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
                                            example[None, s:s + config.window], config, gen)
         with record_function("learn: L_s"):  # neutral content, stylised, must read as "<caption>, <style> style" (eq. 11)
             idx = [neutral[i] for i in torch.randint(len(neutral), (config.content_batch,), generator=gen).tolist()]
-            xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx])
-            valid = torch.stack([_crop_mask(dataset.records[i].length, config.window) for i in idx])
+            xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx]).to(device)
+            valid = torch.stack([_crop_mask(dataset.records[i].length, config.window) for i in idx]).to(device)
             t = steps[int(torch.randint(len(steps), (1,), generator=gen))]
-            y_c = noise_keeping(scheduler, xs, torch.randn(xs.shape, generator=gen), t, TRAJECTORY)
-            x0_c = overwrite(model(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
+            y_c = noise_keeping(scheduler, xs, torch.randn(xs.shape, generator=gen).to(device), t, TRAJECTORY)
+            x0_c = overwrite(model(y_c, torch.full((len(idx),), t, device=device), None, valid), xs, TRAJECTORY)
             z = motion_encoder(x0_c * valid[..., None], valid)
             target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
             loss_s = (1 - (z * target).sum(-1)).mean()
         loss = loss_rec + config.lambda_s * loss_s
         if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
             with record_function("learn: prior preservation"), torch.no_grad():
-                x0_p = overwrite(prior(y_c, torch.full((len(idx),), t), None, valid), xs, TRAJECTORY)
+                x0_p = overwrite(prior(y_c, torch.full((len(idx),), t, device=device), None, valid), xs, TRAJECTORY)
             w = valid[..., None].to(x0_c.dtype)
             loss = loss + config.lambda_p * (((x0_c - x0_p) ** 2) * w).sum() / (w.sum() * x0_c.shape[-1])
         with record_function("learn: backward + step"):
@@ -257,7 +267,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
         "base_model_sha256": file_sha256(prior_path) if prior_path else None,
         "rank": config.rank,
     }
-    return Style(lora_state(model), meta), {"pair": pair, "history": history}
+    return Style(lora_state(model), meta), {"pair": pair.cpu(), "history": history}
 
 
 def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:
@@ -275,24 +285,24 @@ def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | No
 def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor, m_s: torch.Tensor, config: StyleConfig,
                         generator: torch.Generator) -> torch.Tensor:
     """L_rec (Hu et al. eq. 10): the neutral window ``m_n (1, L, D)`` noised K steps must denoise to the example
-    window ``m_s (1, L, D)`` at every DDIM step from K to 0.
+    window ``m_s (1, L, D)`` at every DDIM step from K to 0. Both on the model's device, with the same root path
+    (the pair is made on the example's path): the unroll inpaints the example's.
 
-    Each step's input depends on the previous prediction only through a detached value, so the unroll runs
-    without gradients (and without dropout) and the model then sees all the steps' inputs in one batched pass.
+    Each step's input depends on the previous prediction only through a detached value, so the unroll
+    (:func:`transfer.sampling.denoising_steps`) runs without gradients (and without dropout) and the model then
+    sees all the steps' inputs in one batched pass.
     """
     k = config.transfer_step
     steps = scheduler.set_timesteps(config.transfer_steps, k).tolist()
-    y = noise_keeping(scheduler, m_n, torch.randn(m_n.shape, generator=generator), k, TRAJECTORY)
-    inputs = [y]
+    y = noise_keeping(scheduler, m_n, torch.randn(m_n.shape, generator=generator).to(m_n.device), k, TRAJECTORY)
     training = model.training
     model.eval()
-    with torch.no_grad():
-        for t in steps[:-1]:
-            y = scheduler.step(overwrite(model(y, torch.tensor([t])), m_s, TRAJECTORY), t, y)
-            inputs.append(y)
+    with torch.no_grad():  # the inputs of the steps only: the last step's prediction is never made
+        unroll = denoising_steps(model, scheduler, y, k, config.transfer_steps, inpaint=(m_s, TRAJECTORY))
+        inputs = [x_t for _, x_t in itertools.islice(unroll, len(steps))]
     model.train(training)
     target = m_s.expand(len(steps), -1, -1)
-    x0 = overwrite(model(torch.cat(inputs), torch.tensor(steps)), target, TRAJECTORY)
+    x0 = overwrite(model(torch.cat(inputs), torch.tensor(steps, device=m_s.device)), target, TRAJECTORY)
     return ((x0 - target) ** 2).mean()
 
 

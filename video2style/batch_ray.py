@@ -9,6 +9,8 @@ Style files go to ``OUT/styles`` and reach the apply tasks by that path: on seve
 must be a folder they all see (NFS, a mounted bucket). Every file is written atomically, an item is
 done only when its BVH and preview both exist, a failing item is tried ``retries`` more times and then
 reported, and a task whose worker dies is run again by Ray (what it finished is skipped).
+With ``--device cuda`` (or ``auto`` where there are GPUs: :func:`task_device`) each learn and apply task asks
+Ray for one GPU (:func:`task_options`) and its worker runs the models on the GPU Ray gives it.
 """
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ import socket
 import time
 from pathlib import Path
 
+from transfer.device import DEVICES, resolve_device
 from video2style.batch import (
     BatchReport,
     _style_facts,
@@ -32,8 +35,33 @@ def _worker() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _learn_job(video: str, style_path: str, learn_config, threads: int) -> dict:
-    """Load or learn one video's style (runs in a Ray worker)."""
+def task_device(device: str, cluster_gpus: float | None) -> str:
+    """Where the learn and apply tasks run for ``--device`` (``auto``, ``cpu``, ``cuda``): ``"cuda"`` or ``"cpu"``.
+
+    ``cluster_gpus`` None (a local Ray): what ``device`` resolves to on this machine
+    (:func:`transfer.device.resolve_device`). On a cluster, the GPUs Ray counts decide: cuda for ``cuda`` (a
+    ValueError when there are none: its tasks would wait forever) and for ``auto`` when there are some.
+    """
+    if cluster_gpus is None:
+        return resolve_device(device).type
+    if device not in DEVICES:
+        raise ValueError(f"--device: expected one of {', '.join(DEVICES)}, got {device!r}")
+    if device == "cuda" and cluster_gpus <= 0:
+        raise ValueError("--device cuda: the Ray cluster has no GPU (ray.cluster_resources() counts none); "
+                         "use --device cpu or auto")
+    return "cuda" if device == "cuda" or (device == "auto" and cluster_gpus > 0) else "cpu"
+
+
+def task_options(device: str) -> dict:
+    """Ray options of a learn or apply task on ``device`` (from :func:`task_device`): one CPU, run again up to
+    three times if its worker dies, and one GPU for ``"cuda"`` (Ray then shows the worker that GPU alone)."""
+    if device not in ("cpu", "cuda"):
+        raise ValueError(f"task_options: expected 'cpu' or 'cuda', got {device!r}")
+    return {"num_cpus": 1, "max_retries": 3, **({"num_gpus": 1} if device == "cuda" else {})}
+
+
+def _learn_job(video: str, style_path: str, learn_config, threads: int, device: str = "cpu") -> dict:
+    """Load or learn one video's style (runs in a Ray worker, on ``device``)."""
     import torch
 
     from video2style.batch import _style_for
@@ -41,7 +69,7 @@ def _learn_job(video: str, style_path: str, learn_config, threads: int) -> dict:
     torch.set_num_threads(threads)
     t0 = time.time()
     try:
-        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None)
+        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None, device)
         return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker()}
     except Exception as e:  # noqa: BLE001 - reported as the video's failure
         return {"video": Path(video).name, "status": "failed", "error": f"learn: {e}", "seconds": time.time() - t0,
@@ -49,8 +77,8 @@ def _learn_job(video: str, style_path: str, learn_config, threads: int) -> dict:
 
 
 def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], strength: float, seed: int,
-               retries: int, threads: int) -> list[dict]:
-    """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker)."""
+               retries: int, threads: int, device: str = "cpu") -> list[dict]:
+    """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
     from transfer.style import Style, style_model
@@ -58,7 +86,7 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
 
     torch.set_num_threads(threads)
     style = Style.load(Path(style_path))
-    model = style_model(load_models().prior, style)
+    model = style_model(load_models(device).prior, style)
     facts = _style_facts(style, strength)
     return [{**apply_item(style, model, facts, video, Path(clip), Path(where), strength, seed, retries), "worker": _worker()}
             for clip, where in items]
@@ -66,10 +94,11 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
 
 def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
                   seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
-                  retries: int = 1, progress=print) -> BatchReport:
+                  retries: int = 1, progress=print, device: str = "cpu") -> BatchReport:
     """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
     CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
-    ``report.json`` (one row per item: status, seconds, worker, attempts, error)."""
+    ``report.json`` (one row per item: status, seconds, worker, attempts, error). ``device``: where the
+    tasks run (:func:`task_device`; a GPU task asks Ray for one GPU)."""
     try:
         import ray
     except ImportError:
@@ -80,15 +109,20 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
     videos, clips, keys = plan(videos_dir, content_dir)
     with batch_folder(out_dir, progress):
         started_here = not ray.is_initialized()
+        on = task_device(device, None) if address is None else None  # a local Ray: this machine's torch decides
         if started_here:
+            import torch
+
             ray.init(address=address, num_cpus=workers if address is None else None, include_dashboard=False,
-                     log_to_driver=False, configure_logging=False)
+                     log_to_driver=False, configure_logging=False,
+                     num_gpus=torch.cuda.device_count() if on == "cuda" else None)
         try:
+            on = on or task_device(device, ray.cluster_resources().get("GPU", 0))
             # torch threads per task: the machine's cores shared by the tasks Ray runs at once on it
             threads = max(1, (os.cpu_count() or 1) // max(1, int(workers or os.cpu_count() or 1))) if address is None else 1
-            learn = ray.remote(num_cpus=1, max_retries=3)(_learn_job)
-            apply = ray.remote(num_cpus=1, max_retries=3)(_apply_job)
-            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads):
+            learn = ray.remote(_learn_job).options(**task_options(on))
+            apply = ray.remote(_apply_job).options(**task_options(on))
+            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads, on):
                        ("learn", v) for v in videos}
             report = BatchReport()
             bar = tqdm(total=len(videos) * (1 + len(clips)), unit="item", desc="batch", disable=progress is None)
@@ -105,7 +139,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
                     style_path = str(out_dir / "styles" / f"{keys[what]}.v2s")
                     items = [(str(c), str(out_dir / keys[what] / c.relative_to(content_dir).parent)) for c in clips]
                     for i in range(0, len(items), chunk):
-                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries, threads)
+                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries, threads, on)
                         pending[ref] = ("apply", len(items[i:i + chunk]))
                 else:
                     for row in result:

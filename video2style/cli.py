@@ -164,7 +164,8 @@ def cmd_train_prior(args) -> None:
 
     explicit = {f.name: getattr(args, f.name) for f in fields(PriorTrainConfig) if getattr(args, f.name, None) is not None}
     config = PriorTrainConfig(**explicit)
-    trainer = train_prior(args.data, args.out, config, args.max_minutes, args.max_steps, explicit, progress=not args.quiet)
+    trainer = train_prior(args.data, args.out, config, args.max_minutes, args.max_steps, explicit, progress=not args.quiet,
+                          device=args.device)
     print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'denoiser.safetensors'}")
 
 
@@ -175,7 +176,7 @@ def cmd_train_encoder(args) -> None:
 
     explicit = {f.name: getattr(args, f.name) for f in fields(EncoderTrainConfig) if getattr(args, f.name, None) is not None}
     trainer = train_motion_encoder(args.data, args.prior, args.out, EncoderTrainConfig(**explicit), args.max_minutes,
-                                   args.max_steps, explicit, progress=not args.quiet)
+                                   args.max_steps, explicit, progress=not args.quiet, device=args.device)
     print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'motion_encoder.safetensors'}")
 
 
@@ -196,7 +197,7 @@ def cmd_learn(args) -> None:
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
-                         span=(args.start, args.end), show_bar=True)
+                         span=(args.start, args.end), show_bar=True, device=args.device)
     if summary["partial"]:
         print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
     print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
@@ -274,7 +275,7 @@ def _diffusion_runner(args, joint_map):
             raise CliError(f"apply: --{flag} belongs to --method stgcn")
     _check_strength(args.strength)
     style = Style.load(args.style)
-    model = style_model(load_models().prior, style)
+    model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
@@ -295,6 +296,8 @@ def _stgcn_runner(args, joint_map):
 
     if args.domain is None:
         raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")
+    if args.device != "cpu":
+        raise CliError("apply: --device goes with the diffusion method (--method stgcn runs on the CPU)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
     model = load_stylizer(args.weights)
     request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
@@ -372,11 +375,11 @@ def cmd_batch(args) -> None:
         from video2style.batch_ray import run_batch_ray
 
         report = run_batch_ray(args.videos, args.content, args.output, args.strength, seed=args.seed,
-                               address=None if args.ray == "local" else args.ray, workers=args.workers)
+                               address=None if args.ray == "local" else args.ray, workers=args.workers, device=args.device)
     else:
         if args.workers is not None:
             raise CliError("batch: --workers goes with --ray")
-        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed)
+        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed, device=args.device)
     print(report.table())
     print(f"report: {args.output / 'report.json'}")
     print(f"index: {args.output / 'index.html'}")
@@ -400,6 +403,26 @@ def _positive_int(v: str) -> int:
     if x <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
     return x
+
+
+def _add_device(parser: argparse.ArgumentParser) -> None:
+    from transfer.device import DEVICE_HELP, DEVICES
+
+    parser.add_argument("--device", choices=DEVICES, default="cpu", help=DEVICE_HELP)
+
+
+def _device_error(args) -> str | None:
+    """The one-line error for a ``--device`` this machine cannot run, checked before any work, else None. A batch
+    joining a Ray cluster is checked against the cluster's GPUs instead (:func:`video2style.batch_ray.task_device`)."""
+    if getattr(args, "device", "cpu") == "cpu" or getattr(args, "ray", None) not in (None, "local"):
+        return None
+    from transfer.device import resolve_device
+
+    try:
+        resolve_device(args.device)
+    except ValueError as e:
+        return str(e)
+    return None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -480,6 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
+    _add_device(lr)
     lr.set_defaults(func=cmd_learn)
 
     ap = sub.add_parser("apply", help="apply a learned style (or Park et al.'s ST-GCN stylizer) to BVH clips",
@@ -510,6 +534,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
     ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
     ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
+    _add_device(ap)
     ap.set_defaults(func=cmd_apply)
 
     po = sub.add_parser("pose", help="video of one person -> BVH on the canonical skeleton (+ preview)",
@@ -536,6 +561,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
                         "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")
     b.add_argument("--workers", type=_positive_int, help="--ray without an address: CPUs to use (default: all)")
+    _add_device(b)
     b.set_defaults(func=cmd_batch)
 
     t = sub.add_parser("train-prior", help="train (or resume) the text-conditioned motion diffusion prior")
@@ -547,6 +573,7 @@ def build_parser() -> argparse.ArgumentParser:
                       ("lr", float), ("seed", int)]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
+    _add_device(t)
     t.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     t.set_defaults(func=cmd_train_prior)
 
@@ -559,6 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", int)]:
         e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
+    _add_device(e)
     e.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     e.set_defaults(func=cmd_train_encoder)
 
@@ -616,6 +644,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
+        return 2
+    device_error = _device_error(args)
+    if device_error:
+        print(f"video2style {args.command}: error: {device_error}", file=sys.stderr)
         return 2
     import signal
 

@@ -32,27 +32,41 @@ class Models:
     prior_path: Path
 
 
-@lru_cache(maxsize=1)
-def load_models() -> Models:
+PRIOR_FILE = "denoiser.safetensors"
+
+
+def load_models(device: str | torch.device = "cpu") -> Models:
+    """The shipped prior and motion encoder on ``device`` (``auto``, ``cpu``, ``cuda``: see
+    :func:`transfer.device.resolve_device`), loaded once per process and device. ``mean``/``std`` and the
+    text encoder's embeddings stay on the CPU, beside the motion code."""
+    from transfer.device import resolve_device
+
+    return _models_on(str(resolve_device(device)))
+
+
+@lru_cache(maxsize=2)
+def _models_on(device: str) -> Models:
     from transfer.motion_encoder import load_motion_encoder
     from transfer.prior import load_prior
     from transfer.text_encoder import default_text_encoder
 
-    prior_path = weights_path("denoiser.safetensors")
+    prior_path = weights_path(PRIOR_FILE)
     prior, mean, std = load_prior(prior_path)
     encoder = load_motion_encoder(weights_path("motion_encoder.safetensors"))
-    return Models(prior, mean, std, encoder, default_text_encoder(), prior_path)
+    return Models(prior.to(device), mean, std, encoder.to(device), default_text_encoder(), prior_path)
 
 
-def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5) -> list[Motion]:
-    """Text-to-motion samples of the shipped prior, one per caption, as canonical motions standing on the floor."""
+def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5,
+                  device: str = "cpu") -> list[Motion]:
+    """Text-to-motion samples of the shipped prior (run on ``device``), one per caption, as canonical motions
+    standing on the floor."""
     from transfer.sampling import generate
     from transfer.scheduler import DiffusionScheduler
 
-    m = load_models()
+    m = load_models(device)
     gen = torch.Generator().manual_seed(seed)
     x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), m.text_encoder.encode(captions), frames,
-                 steps, guidance, gen)
+                 steps, guidance, gen).cpu()
     return [place_on_floor(decode(f * m.std + m.mean)) for f in x]
 
 
@@ -160,8 +174,11 @@ class PartialStyleError(ValueError):
 
 def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
                config=None, joint_map: dict | None = None, progress=print, *, allow_partial: bool = False,
-               span: tuple[float | None, float | None] = (None, None), show_bar: bool = False) -> dict:
-    """Learn a style from a video or BVH and save it to ``out_path``; returns a summary.
+               span: tuple[float | None, float | None] = (None, None), show_bar: bool = False,
+               device: str = "cpu") -> dict:
+    """Learn a style from a video or BVH on ``device`` (:func:`load_models`) and save it to ``out_path``;
+    returns a summary. The noise is drawn on the CPU whatever the device, so a GPU's style differs from the
+    CPU's only by the GPU's arithmetic (and its dropout draws).
 
     If learning is cut short by ``config.max_seconds`` or runs fewer than
     :data:`transfer.style.MIN_ITERATIONS` iterations, raises :class:`PartialStyleError` and writes
@@ -177,7 +194,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     progress(f"[1/4] reading {path}")
     clip = read_clip(path, joint_map, progress=progress, span=span)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
-    m = load_models()
+    m = load_models(device)
     example = (encode(clip.canonical) - m.mean) / m.std
     if text is None:
         reading = read_motion(m.motion_encoder, m.text_encoder, example)
@@ -247,13 +264,14 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
     ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
     (only when the motion encoder reads a styled clip confidently), always or never.
     Returns the result and what was decided (``detected``, ``neutralized``) with the foot-skating ratios
-    before and after cleanup.
+    before and after cleanup. Runs on ``model``'s device (the prior is loaded there too); the result is on the CPU.
     """
     from dataclasses import replace
 
     from transfer.apply import apply_style_motion, neutral_caption, strength_settings
+    from transfer.device import model_device
 
-    m = load_models()
+    m = load_models(model_device(model))
     config = style_config(style)
     step, scale = strength_settings(strength, config)
     config = replace(config, style_scale=scale)
@@ -297,7 +315,7 @@ def base_model_warning(style, source: Path) -> str | None:
     learned_on = style.meta.get("base_model_sha256")
     if learned_on is None:
         return None
-    installed = _sha256(load_models().prior_path)
+    installed = _sha256(weights_path(PRIOR_FILE))  # the file load_models reads; no model is loaded for this
     if learned_on == installed:
         return None
     return (f"warning: {source}: learned on another prior (sha256 {learned_on[:12]}…, installed "
