@@ -42,6 +42,7 @@ from motioncore.representation import FEATURES
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.checkpoints import load_config, save_model
 from transfer.dataset import MotionDataset
+from transfer.device import model_device, resolve_device
 from transfer.shipped import weights_dir
 from transfer.training import Trainer
 
@@ -91,7 +92,8 @@ class MotionClassifier(nn.Module):
         return self.config.channels[-1]
 
     def standardize(self, raw: torch.Tensor) -> torch.Tensor:
-        return (raw - self.mean) / self.std
+        """Raw features ``(*, D)`` -> the model's input, on ``raw``'s device."""
+        return (raw - self.mean.to(raw.device)) / self.std.to(raw.device)
 
     def features(self, x: torch.Tensor, valid: torch.Tensor | None = None) -> torch.Tensor:
         """Pooled feature vector ``(B, channels[-1])``: masked mean over frames and joints of the last block."""
@@ -148,7 +150,8 @@ def run_batched(model: MotionClassifier, clips: Sequence[torch.Tensor], what: st
     for s in range(0, len(order), batch_size):
         idx = order[s:s + batch_size]
         x, valid = pad_batch([clips[i].float() for i in idx])
-        for i, row in zip(idx, fn(x, valid)):
+        dev = model_device(model)
+        for i, row in zip(idx, fn(x.to(dev), valid.to(dev)).to(x.device)):
             outs[i] = row
     model.train(was_training)
     return torch.stack(outs)
@@ -230,12 +233,14 @@ def evaluate_clips(model: MotionClassifier, data: MotionDataset, idx: list[int],
 
 def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max_minutes: float = 10.0,
                      max_steps: int = 3000, config: ClassifierTrainConfig | None = None, weights_path: Path | None = None,
-                     explicit: dict | None = None, eval_every: int = 250, progress: bool = True) -> dict:
+                     explicit: dict | None = None, eval_every: int = 250, progress: bool = True,
+                     device: str = "cpu") -> dict:
     """Train (or resume) a ``target`` classifier; checkpoints and ``log.csv`` in ``out_dir``.
 
     Stops at ``max_steps`` or after ``max_minutes`` (this call), exports the EMA weights to
     ``weights_path`` (default :func:`default_weights`) with a JSON model card holding the test
     accuracy and confusion matrix, and returns that card.
+    ``device``: auto, cpu or cuda (:func:`transfer.device.resolve_device`); the exported weights are CPU tensors.
     """
     if target not in TARGETS:
         raise ValueError(f"train_classifier: target must be one of {sorted(TARGETS)}, got {target!r}")
@@ -256,16 +261,18 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
     val, val_idx, val_y = labelled_clips(data_dir, "val", target)
     test, test_idx, test_y = labelled_clips(data_dir, "test", target)
 
-    model = MotionClassifier(config.model_config())
+    model = MotionClassifier(config.model_config())  # made on the CPU (the same seeded weights anywhere), then moved
     model.mean.copy_(train.mean)
     model.std.copy_(train.std)
+    dev = resolve_device(device)
+    model.to(dev)
     trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema, weight_decay=config.weight_decay)
     trainer.resume(explicit or {})
     gen = torch.Generator().manual_seed(config.seed * 1000003 + trainer.step)
 
     def loss_fn(m, step):
         window = int(torch.randint(config.min_window, config.max_window + 1, (1,), generator=gen))
-        x, valid, y = _sample_batch(train, by_class, config.batch_size, window, gen)
+        x, valid, y = (t.to(dev) for t in _sample_batch(train, by_class, config.batch_size, window, gen))
         logits = m(x, valid)
         loss = F.cross_entropy(logits, y, label_smoothing=config.label_smoothing)
         # "val_acc" is present (empty) in every row so the CSV header, fixed by the first row, has its column

@@ -44,6 +44,7 @@ def test_the_device_names_import_without_torch():
 @pytest.mark.parametrize("argv", [
     ["learn", "walk.bvh"], ["apply", "old.v2s", "walk.bvh"], ["batch", "videos", "--content", "lib"],
     ["batch", "videos", "--content", "lib", "--ray"], ["train-prior"], ["train-encoder", "--prior", "p.safetensors"],
+    ["train-park"], ["train-classifier", "--target", "style"], ["apply", "--method", "stgcn", "--domain", "elderly", "walk.bvh"],
 ])
 def test_cuda_without_a_gpu_is_one_line_and_exit_2_before_any_work(argv, no_gpu, tmp_path, capsys, monkeypatch):
     from video2style.cli import main
@@ -63,7 +64,8 @@ def test_device_option_on_the_commands_that_run_models(no_gpu):
     commands = parser._subparsers._group_actions[0].choices
     for name, sub in commands.items():
         has = any("--device" in a.option_strings for a in sub._actions)
-        assert has == (name in ("learn", "apply", "batch", "train-prior", "train-encoder")), name
+        assert has == (name in ("learn", "apply", "batch", "train-prior", "train-encoder", "train-park",
+                                "train-classifier")), name
         assert sub.get_default("device") == ("cpu" if has else None)
     # a batch joining a Ray cluster is checked against the cluster's GPUs, not this machine's
     args = parser.parse_args(["batch", "v", "--content", "c", "-o", "o", "--ray", "auto", "--device", "cuda"])
@@ -137,3 +139,20 @@ def test_device_cpu_and_auto_give_the_default_result(no_gpu, tmp_path):
         outputs.append((out / "walk_prior.bvh").read_bytes())
     assert outputs[0] == outputs[1] == outputs[2]
     assert outputs[0] != (SAMPLES / "walk_prior.bvh").read_bytes()
+
+
+def test_park_et_al_keeps_its_tensors_on_the_models_device():
+    """Park et al.'s inference on the meta device (shapes only), from CPU inputs: codes from noise and from a
+    reference, and windowed generation, as a GPU would run them."""
+    from evaluation.park.infer import code_from_noise, code_from_reference, generate
+    from evaluation.park.networks import ParkConfig, ParkModel
+
+    meta = torch.device("meta")
+    torch.manual_seed(0)
+    model = ParkModel(ParkConfig()).eval().to(meta)
+    x = torch.randn(70, FEATURES.dim)
+    codes = code_from_noise(model, model.config.domains[1], seed=3, n=2)
+    assert codes.device == meta and codes.shape[0] == 2
+    assert code_from_reference(model, x, model.config.domains[0]).device == meta
+    out = generate(model, x.to(meta), codes[0])
+    assert out.device == meta and out.shape == x.shape

@@ -19,8 +19,8 @@ def save_model(model: nn.Module, config, path: Path, card: dict | None = None, e
     from motioncore.files import atomic_output, atomic_write_text
 
     path = Path(path)
-    tensors = {k: v.detach().contiguous() for k, v in model.state_dict().items()}
-    tensors.update(extra or {})
+    tensors = {k: v.detach().cpu().contiguous() for k, v in model.state_dict().items()}
+    tensors.update({k: v.cpu() for k, v in (extra or {}).items()})
     with atomic_output(path, ".tmp") as tmp:
         save_file(tensors, str(tmp), metadata={"config": json.dumps(asdict(config)), "class": type(config).__name__})
     if card is not None:

@@ -296,10 +296,8 @@ def _stgcn_runner(args, joint_map):
 
     if args.domain is None:
         raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")
-    if args.device != "cpu":
-        raise CliError("apply: --device goes with the diffusion method (--method stgcn runs on the CPU)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
-    model = load_stylizer(args.weights)
+    model = load_stylizer(args.weights, args.device)
     request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))
     files = _bvh_inputs(inputs, args.output)
@@ -338,7 +336,7 @@ def cmd_train_park(args) -> None:
     if args.threads:
         torch.set_num_threads(args.threads)
     card = train_park(args.data, args.out, config, args.max_minutes, args.max_steps,
-                      args.weights, explicit, progress=not args.quiet, init_path=args.init)
+                      args.weights, explicit, progress=not args.quiet, init_path=args.init, device=args.device)
     print(f"step {card.get('steps', '?')}; weights: {args.weights or 'transfer/weights/park_stylizer.safetensors'}")
 
 
@@ -352,7 +350,8 @@ def cmd_train_classifier(args) -> None:
     explicit = {"seed": args.seed} if args.seed is not None else {}
     out = args.out or args.run_root / f"classifier_{args.target}"
     card = train_classifier(args.data, out, args.target, args.max_minutes, args.max_steps,
-                            ClassifierTrainConfig(target=args.target, **explicit), args.weights, explicit, progress=not args.quiet)
+                            ClassifierTrainConfig(target=args.target, **explicit), args.weights, explicit, progress=not args.quiet,
+                            device=args.device)
     print(f"{args.target} classifier: step {card['steps']}, test accuracy {100 * card['test_accuracy']:.1f}% "
           f"on {card['test_clips']} clips")
 
@@ -597,6 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
     tp.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
     tp.add_argument("--max-steps", type=int, default=100_000, help="stop at this many optimiser steps in all (default: %(default)s)")
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
+    _add_device(tp)
     for name in ("batch_size", "window", "seed", "ds_decay_steps"):
         tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
                         help="default: see evaluation.park.train.ParkTrainConfig; a resumed run keeps its own")
@@ -615,6 +615,7 @@ def build_parser() -> argparse.ArgumentParser:
     tc.add_argument("--max-minutes", type=_positive, default=10.0, help="stop after this long; run again to resume (default: %(default)s)")
     tc.add_argument("--max-steps", type=int, default=600, help="stop at this many optimiser steps in all (default: %(default)s)")
     tc.add_argument("--threads", type=int, default=0, help="torch threads, 0 = torch's default (default: %(default)s)")
+    _add_device(tc)
     tc.add_argument("--seed", type=int, default=None, help="random seed (default: the config's)")
     tc.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")

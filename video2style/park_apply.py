@@ -26,10 +26,10 @@ from video2style.pipeline import (
 
 
 @lru_cache(maxsize=2)
-def load_stylizer(path: Path | None = None):
+def load_stylizer(path: Path | None = None, device: str = "cpu"):
     from evaluation.park.infer import load_park
 
-    return load_park(path or weights_path("park_stylizer.safetensors"))
+    return load_park(path or weights_path("park_stylizer.safetensors"), device)
 
 
 MAX_VARIANTS = 64  # outputs per clip: each is a BVH and a preview panel
@@ -67,7 +67,7 @@ def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> 
     request.validate(list(model.config.domains))
     if request.reference is not None:
         ref = read_clip(request.reference, joint_map).canonical
-        x = (encode(ref) - model.mean) / model.std
+        x = (encode(ref) - model.mean.cpu()) / model.std.cpu()
         return [(code_from_reference(model, x, request.domain), f"{request.domain}-ref")]
     if request.mix is not None:
         a = code_from_noise(model, request.domain, request.seed)[0]
@@ -90,12 +90,13 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
     from evaluation.park.infer import generate
 
     content = clip.canonical
-    x = (encode(content) - model.mean) / model.std
+    mean, std = model.mean.cpu(), model.std.cpu()  # the motion code runs on the CPU, the model anywhere
+    x = (encode(content) - mean) / std
     p0 = content.global_positions()[:1].double()
     start = {"start_yaw": float(facing_angle(p0)[0]), "start_xz": (float(p0[0, 0, 0]), float(p0[0, 0, 2]))}
     out = []
     for code, tag in codes:
-        feats = generate(model, x, code) * model.std + model.mean
+        feats = generate(model, x, code) * std + mean
         motion = decode_via_positions(feats, content.fps, **start)  # its position channels are the better ones
         if clean:
             motion, ratios = cleanup_feet_measured(motion, content)

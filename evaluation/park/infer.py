@@ -18,12 +18,15 @@ from safetensors.torch import load_file
 from evaluation.park.networks import ParkConfig, ParkModel
 from motioncore.representation import FEATURES, decode_positions
 from transfer.checkpoints import load_config
+from transfer.device import model_device, resolve_device
 
 ROOT_SLICES = (FEATURES.root_rvel, FEATURES.root_lvel)
 
 
-def load_park(path: Path | str) -> ParkModel:
-    """G, E, F from safetensors (config in the metadata; nothing is unpickled), in eval mode."""
+def load_park(path: Path | str, device: str | torch.device = "cpu") -> ParkModel:
+    """G, E, F from safetensors (config in the metadata; nothing is unpickled), in eval mode on ``device``
+    (``"auto"``, ``"cpu"``, ``"cuda"``: :func:`transfer.device.resolve_device`). The functions below take
+    inputs on any device and return results on the input's device (codes on the model's)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with evaluation.park.train.train_park")
@@ -32,7 +35,7 @@ def load_park(path: Path | str) -> ParkModel:
         model.load_state_dict(load_file(str(path)))
     except Exception as e:  # noqa: BLE001 - safetensors, json and torch each raise their own errors on garbage
         raise ValueError(f"{path}: not Park stylizer weights ({str(e).splitlines()[0][:160]})") from None
-    return model.eval()
+    return model.to(resolve_device(device)).eval()
 
 
 def _pad4(x: torch.Tensor, length: int | None = None) -> torch.Tensor:
@@ -45,8 +48,9 @@ def _pad4(x: torch.Tensor, length: int | None = None) -> torch.Tensor:
 @torch.no_grad()
 def code_from_noise(model: ParkModel, domain: str, seed: int, n: int = 1) -> torch.Tensor:
     """``(n, style_dim)`` style codes ``F(z, domain)`` for ``z`` drawn from a generator seeded with ``seed``."""
-    z = torch.randn(n, model.config.latent_dim, generator=torch.Generator().manual_seed(seed))
-    return model.f(z, torch.full((n,), model.domain_index(domain), dtype=torch.long))
+    dev = model_device(model)
+    z = torch.randn(n, model.config.latent_dim, generator=torch.Generator().manual_seed(seed)).to(dev)
+    return model.f(z, torch.full((n,), model.domain_index(domain), dtype=torch.long, device=dev))
 
 
 @torch.no_grad()
@@ -54,8 +58,9 @@ def code_from_reference(model: ParkModel, reference: torch.Tensor, domain: str) 
     """``(style_dim,)`` style code ``E_domain(reference)`` of a normalised reference motion ``(T', D)`` (whole clip)."""
     if reference.ndim != 2 or reference.shape[1] != model.config.feature_dim:
         raise ValueError(f"reference: expected (T, {model.config.feature_dim}), got {tuple(reference.shape)}")
-    y = torch.tensor([model.domain_index(domain)])
-    return model.e(_pad4(reference.float())[None], y)[0]
+    dev = model_device(model)
+    y = torch.tensor([model.domain_index(domain)], device=dev)
+    return model.e(_pad4(reference.float().to(dev))[None], y)[0]
 
 
 @torch.no_grad()
@@ -65,7 +70,8 @@ def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overla
 
     if content.ndim != 2 or content.shape[1] != model.config.feature_dim:
         raise ValueError(f"content: expected (T, {model.config.feature_dim}), got {tuple(content.shape)}")
-    x, s = content.float(), code.reshape(1, -1).float()
+    dev = model_device(model)
+    x, s = content.float().to(dev), code.reshape(1, -1).float().to(dev)
     n, window = x.shape[0], model.config.window
     overlap = window // 4 if overlap is None else overlap
     starts = window_starts(n, window, overlap)
@@ -76,7 +82,7 @@ def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overla
     out = crossfade(chunks, starts, n) if len(chunks) > 1 else chunks[0].clone()
     for sl in ROOT_SLICES:
         out[:, sl] = x[:, sl]
-    return out
+    return out.to(content.device)
 
 
 def stylize_noise(model: ParkModel, content: torch.Tensor, domain: str, seed: int = 0, n_variants: int = 1) -> list[torch.Tensor]:

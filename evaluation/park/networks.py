@@ -149,7 +149,7 @@ class StyleEncoder(nn.Module):
 
     def forward(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
         out = self.heads(self.trunk(x)).view(x.shape[0], len(self.cfg.domains), self.cfg.style_dim)
-        return out[torch.arange(x.shape[0]), y]
+        return out[torch.arange(x.shape[0], device=out.device), y]
 
 
 class MappingNetwork(nn.Module):
@@ -179,7 +179,7 @@ class Discriminator(nn.Module):
         self.heads = nn.Linear(cfg.channels[-1], len(cfg.domains))
 
     def forward(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
-        return self.heads(self.trunk(x))[torch.arange(x.shape[0]), y]
+        return self.heads(self.trunk(x))[torch.arange(x.shape[0], device=x.device), y]
 
 
 def he_init(module: nn.Module) -> None:

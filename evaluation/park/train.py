@@ -25,6 +25,7 @@ from evaluation.park.networks import Discriminator, ParkConfig, ParkModel, he_in
 from motioncore.representation import FEATURES
 from transfer.checkpoints import RunCheckpoint, save_model
 from transfer.dataset import MotionDataset
+from transfer.device import resolve_device
 from transfer.shipped import weights_dir
 from transfer.training import train_loop, update_ema
 
@@ -99,12 +100,15 @@ def _root_vel_index() -> torch.Tensor:
 class ParkTraining:
     """Nets, optimisers and checkpointing of one run."""
 
-    def __init__(self, config: ParkTrainConfig, out_dir: Path):
+    def __init__(self, config: ParkTrainConfig, out_dir: Path, device: str | torch.device = "cpu"):
         self.config, self.out_dir = config, Path(out_dir)
         torch.manual_seed(config.seed)
-        self.model = ParkModel(config.model_config())
+        self.device = resolve_device(device)
+        self.model = ParkModel(config.model_config())  # made on the CPU (the same seeded weights anywhere), then moved
         self.disc = Discriminator(self.model.config)
         he_init(self.disc)
+        self.model.to(self.device)
+        self.disc.to(self.device)
         self.ema = copy.deepcopy(self.model).eval().requires_grad_(False)
         adam = lambda mod, lr: torch.optim.Adam(mod.parameters(), lr, betas=tuple(config.betas), weight_decay=config.weight_decay)
         self.opts = {"g": adam(self.model.g, config.lr_g), "e": adam(self.model.e, config.lr_e),
@@ -133,15 +137,17 @@ class ParkTraining:
         w, n = self.config.weights, self.config.batch_size
         if self.config.ds_decay_steps > 0:
             w = dataclasses.replace(w, ds=w.ds * max(0.0, 1 - self.step / self.config.ds_decay_steps))
+        dev = self.device  # batches and noise are drawn on the CPU from ``gen``, then moved
         y_org = sampler.domains(n, gen)
-        x = sampler.sample(y_org, gen)
+        x = sampler.sample(y_org, gen).to(dev)
         y_trg = sampler.domains(n, gen)
         latent = self.step % 2 == 0
         if latent:
-            src = {"z": (torch.randn(n, self.model.config.latent_dim, generator=gen),
-                         torch.randn(n, self.model.config.latent_dim, generator=gen))}
+            src = {"z": (torch.randn(n, self.model.config.latent_dim, generator=gen).to(dev),
+                         torch.randn(n, self.model.config.latent_dim, generator=gen).to(dev))}
         else:
-            src = {"ref": (sampler.sample(y_trg, gen), sampler.sample(y_trg, gen))}
+            src = {"ref": (sampler.sample(y_trg, gen).to(dev), sampler.sample(y_trg, gen).to(dev))}
+        y_org, y_trg = y_org.to(dev), y_trg.to(dev)
         loss, logs = d_loss(self.model, self.disc, x, y_org, y_trg, w, **{k: v[0] for k, v in src.items()})
         self.opts["d"].zero_grad(set_to_none=True)
         loss.backward()
@@ -161,9 +167,11 @@ class ParkTraining:
 
 def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = None, max_minutes: float = 10.0,
                max_steps: int = 100_000, weights_path: Path | None = None, explicit: dict | None = None,
-               checkpoint_minutes: float = 5.0, progress: bool = True, init_path: Path | None = None) -> dict:
+               checkpoint_minutes: float = 5.0, progress: bool = True, init_path: Path | None = None,
+               device: str = "cpu") -> dict:
     """Train (or resume) on the Bandai-2 train split until ``max_steps`` or ``max_minutes`` (this call).
 
+    ``device``: auto, cpu or cuda (:func:`transfer.device.resolve_device`); the exported weights are CPU tensors.
     ``init_path``: exported weights (G/E/F) to start a *new* run from (fine-tuning, e.g. with another
     ``weights.ds``); D starts fresh. Ignored when ``out_dir`` already holds a checkpoint.
 
@@ -172,7 +180,7 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
     """
     config = config or ParkTrainConfig()
     weights_path = Path(weights_path) if weights_path is not None else default_weights()
-    run = ParkTraining(config, out_dir)
+    run = ParkTraining(config, out_dir, device)
     init_note = None
     if not run.checkpoint.resume(explicit or {}) and init_path is not None:
         run.init_from(Path(init_path))
