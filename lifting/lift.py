@@ -2,21 +2,19 @@
 :func:`lifting.reconstruct.lift_track` fills gaps, low-passes, fits the skeleton and finds the root path.
 
 This module imports no torch: the torch side (:mod:`lifting.reconstruct`, about a second to import)
-is imported on a thread while the frames are tracked (:func:`lift_video`), so a short video does
-not wait for it. The motion keeps the **video's frame rate** (callers resample, e.g. to the
+is imported on a thread while the frames are tracked (:func:`lift_video`, :mod:`lifting.preload`), so a
+short video does not wait for it. The motion keeps the **video's frame rate** (callers resample, e.g. to the
 canonical 20 fps for the models).
 """
 
 from __future__ import annotations
 
-import importlib
-import sys
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from lifting import preload
 from lifting.blazepose.tracker import PoseFrame, PoseTracker, TrackResult
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.video import iter_frames, prefetched, video_info
@@ -28,7 +26,6 @@ if TYPE_CHECKING:
 
 Progress = bool | Callable[[str], None] | None
 TRUNCATED_FRACTION = 0.9  # fewer decoded frames than this share of the container's count: truncated
-_RECONSTRUCT = "lifting.reconstruct"
 
 
 class _Reporter:
@@ -108,42 +105,13 @@ def lift_video(
     """:func:`track` + :func:`lifting.reconstruct.lift_track` for a video file (``options`` go to
     ``lift_track``); ``span``: ``(start, end)`` seconds of the video to use."""
     t0 = time.perf_counter()
-    with _importing(_RECONSTRUCT):
-        result = track(path, progress, tracker, span)
+    preload.start(preload.RECONSTRUCT)  # imported beside the tracking
+    result = track(path, progress, tracker, span)
     t1 = time.perf_counter()
-    lifted = importlib.import_module(_RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)
+    lifted = preload.finish(preload.RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)
     lifted.info["track_s"] = t1 - t0
     lifted.info["lift_s"] = time.perf_counter() - t1
     return lifted
-
-
-class _importing:
-    """Import ``module`` on a thread for the duration of the ``with`` block (joined on exit).
-
-    ONNX inference and decoding release the GIL, so the import mostly runs beside them. An import
-    error is raised on exit (unless the block itself raised)."""
-
-    def __init__(self, module: str):
-        self.module = module
-
-    def __enter__(self):
-        self.thread, self.error = None, None
-        if self.module not in sys.modules:
-            self.thread = threading.Thread(target=self._run, name=f"import {self.module}", daemon=True)
-            self.thread.start()
-        return self
-
-    def _run(self) -> None:
-        try:
-            importlib.import_module(self.module)
-        except BaseException as error:  # noqa: BLE001 - handed to the caller's thread in __exit__
-            self.error = error
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if self.thread is not None:
-            self.thread.join()
-        if self.error is not None and exc is None:
-            raise self.error
 
 
 def video_to_motion(
