@@ -9,6 +9,7 @@ canonical 20 fps for the models).
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -105,8 +106,14 @@ def lift_video(
     """:func:`track` + :func:`lifting.reconstruct.lift_track` for a video file (``options`` go to
     ``lift_track``); ``span``: ``(start, end)`` seconds of the video to use."""
     t0 = time.perf_counter()
+    fresh = preload.RECONSTRUCT not in sys.modules
     preload.start(preload.RECONSTRUCT)  # imported beside the tracking
-    result = track(path, progress, tracker, span)
+    if fresh and tracker is None and not callable(progress):  # then the import and the tracking share no GIL
+        from lifting.track_process import track_in_child
+
+        result = track_in_child(path, bool(progress), span)
+    else:
+        result = track(path, progress, tracker, span)
     t1 = time.perf_counter()
     lifted = preload.finish(preload.RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)
     lifted.info["track_s"] = t1 - t0

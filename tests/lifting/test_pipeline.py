@@ -223,3 +223,38 @@ def test_the_background_import_hands_its_error_to_the_caller():
         preload.finish("no_such_module_v2s")
     preload.start("json")  # already imported: no thread
     assert "json" not in preload._threads and preload.finish("json").dumps([1]) == "[1]"
+
+
+def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path):
+    from lifting.lift import track
+    from lifting.track_process import track_in_child
+
+    for span in ((None, None), (0.5, None)):
+        here, there = track(rendered[0], tracker=tracker, span=span), track_in_child(rendered[0], span=span)
+        for name in ("world", "image", "visibility", "presence", "score", "found", "times"):
+            np.testing.assert_array_equal(getattr(there, name), getattr(here, name), err_msg=name)
+        assert (there.fps, there.width, there.height) == (here.fps, here.width, here.height)
+    with pytest.raises(ValueError, match=r"^video file not found: .*nope\.mp4$"):
+        track_in_child(tmp_path / "nope.mp4")
+
+
+def test_lift_video_tracks_in_a_child_only_while_torch_is_still_loading(monkeypatch, tmp_path):
+    """A fresh process (the torch side not imported yet) tracks in a child; a given tracker, a progress callback
+    or an already imported torch side keep the tracking here."""
+    import types
+
+    from lifting import lift, preload, track_process
+
+    calls = []
+    fake = types.SimpleNamespace(lift_track=lambda result, *a, **k: types.SimpleNamespace(info={}))
+    monkeypatch.setattr(preload, "start", lambda name: None)
+    monkeypatch.setattr(preload, "finish", lambda name: fake)
+    monkeypatch.setattr(track_process, "track_in_child", lambda *a: calls.append("child"))
+    monkeypatch.setattr(lift, "track", lambda *a: calls.append("here"))
+    monkeypatch.delitem(sys.modules, preload.RECONSTRUCT, raising=False)
+    lift.lift_video(tmp_path / "v.mp4", progress=True)
+    lift.lift_video(tmp_path / "v.mp4", progress=print)
+    lift.lift_video(tmp_path / "v.mp4", tracker=object())
+    monkeypatch.setitem(sys.modules, preload.RECONSTRUCT, fake)
+    lift.lift_video(tmp_path / "v.mp4")
+    assert calls == ["child", "here", "here", "here"]
