@@ -12,7 +12,7 @@ import math
 import numpy as np
 import torch
 
-from lifting.blazepose.landmarks import POSE_LANDMARKS
+from lifting.blazepose.results import POSE_LANDMARKS
 from lifting.filtering import lowpass, maximum_1d, mean_1d, percentile_1d
 from motioncore import quat
 from motioncore.kinematics import rest_positions

@@ -16,12 +16,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from lifting import preload
-from lifting.blazepose.tracker import PoseFrame, PoseTracker, TrackResult
+from lifting.blazepose.results import TrackResult
 from lifting.filtering import DEFAULT_CUTOFF_HZ
-from lifting.video import iter_frames, prefetched, video_info
 from motioncore.span import Span, check_span
 
 if TYPE_CHECKING:
+    from lifting.blazepose.tracker import PoseTracker
     from lifting.reconstruct import LiftResult
     from motioncore.motion import Motion
 
@@ -67,6 +67,10 @@ def track(
     frames, one that decodes to clearly fewer frames than its header promises (truncated), and a
     span that holds no frame.
     """
+    # onnxruntime and OpenCV are imported only where frames are tracked (not by a parent whose child tracks)
+    from lifting.blazepose.tracker import PoseFrame, PoseTracker
+    from lifting.video import iter_frames, prefetched, video_info
+
     path = Path(path)
     start_s, end_s = check_span(span, str(path))
     fps, expected, width, height = video_info(path)

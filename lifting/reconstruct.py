@@ -36,8 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from lifting.blazepose.landmarks import POSE_LANDMARKS
-from lifting.blazepose.tracker import TrackResult
+from lifting.blazepose.results import POSE_LANDMARKS, TrackResult
 from lifting.camera import DEFAULT_FOV_DEG, focal_length, solve_translation
 from lifting.filtering import (
     DEFAULT_CUTOFF_HZ,

@@ -15,19 +15,16 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
-from lifting.blazepose.landmarks import POSE_CONNECTIONS
-from lifting.blazepose.tracker import PoseTracker
+from lifting.blazepose.results import POSE_CONNECTIONS
 from lifting.camera import DEFAULT_FOV_DEG
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.lift import Progress, _Reporter, lift_video
-from lifting.video import iter_frames, prefetched
 from motioncore.files import publish
-from motioncore.mp4 import Mp4Writer
 
 if TYPE_CHECKING:
+    from lifting.blazepose.tracker import PoseTracker
     from lifting.reconstruct import LiftResult
 
 PREVIEW_HEIGHT = 480
@@ -110,6 +107,8 @@ def pose_file(
 
 def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool) -> None:
     """BlazePose's skeleton ``pts (33, 2)`` (pixels of the original frame) onto ``img`` in place."""
+    import cv2
+
     p = np.round(pts * scale * 16).astype(np.int64)
     thick = max(2, img.shape[0] // 200)
     for a, b in POSE_CONNECTIONS:
@@ -122,6 +121,8 @@ def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool)
 
 def _frames(video: Path, n: int, first: int = 0):
     """``(index - first, frame)`` of ``n`` frames from frame ``first`` on."""
+    from lifting.video import iter_frames
+
     for i, _, frame in iter_frames(video):
         if i < first:
             continue
@@ -132,6 +133,10 @@ def _frames(video: Path, n: int, first: int = 0):
 
 def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress) -> str:
     """Render the preview to a temporary file beside ``out``; returns its path (the caller renames)."""
+    import cv2  # OpenCV and the torch side only for a preview (pose_file's own work is done by now)
+
+    from lifting.video import prefetched
+    from motioncore.mp4 import Mp4Writer
     from motioncore.render import Panel, render_frame
     from motioncore.skeleton import CANONICAL
 

@@ -1,7 +1,7 @@
 """BlazePose landmark model (full): crop, inference, decoding, heatmap refinement.
 
 Mirrors MediaPipe's pose_landmark_by_roi graph. The model predicts 39 points:
-the 33 pose landmarks (:data:`POSE_LANDMARKS`) and auxiliary points, of which
+the 33 pose landmarks (:data:`lifting.blazepose.results.POSE_LANDMARKS`) and auxiliary points, of which
 33 (hip centre) and 34 (full-body size/rotation point) give the next ROI.
 """
 
@@ -20,20 +20,6 @@ NUM_LANDMARKS = 33
 HEATMAP_KERNEL = 7
 MIN_REFINE_CONFIDENCE = 0.5
 
-POSE_LANDMARKS = (
-    "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",
-    "right_eye_outer", "left_ear", "right_ear", "mouth_left", "mouth_right", "left_shoulder",
-    "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_pinky",
-    "right_pinky", "left_index", "right_index", "left_thumb", "right_thumb", "left_hip",
-    "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle", "left_heel",
-    "right_heel", "left_foot_index", "right_foot_index",
-)  # fmt: skip
-# BlazePose's landmark graph (MediaPipe's POSE_CONNECTIONS), body part only (no face outline).
-POSE_CONNECTIONS = (
-    (11, 12), (11, 13), (13, 15), (15, 17), (15, 19), (17, 19), (12, 14), (14, 16), (16, 18), (16, 20),
-    (18, 20), (11, 23), (12, 24), (23, 24), (23, 25), (24, 26), (25, 27), (26, 28), (27, 29), (28, 30),
-    (29, 31), (30, 32), (27, 31), (28, 32), (0, 7), (0, 8),
-)  # fmt: skip
 
 
 @dataclass

@@ -20,7 +20,7 @@ Output coordinate frames:
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -63,51 +63,6 @@ class PoseFrame:
         nan3 = np.full((NUM_LANDMARKS, 3), np.nan)
         nan1 = np.full(NUM_LANDMARKS, np.nan)
         return cls(nan3, nan3.copy(), nan1, nan1.copy(), score, False, None, detected)
-
-
-@dataclass
-class TrackResult:
-    """Stacked per-frame results of a video: T frames.
-
-    ``world``, ``image`` (T,33,3); ``visibility``, ``presence`` (T,33);
-    ``score`` (T,); ``found`` (T,) bool mask; ``times`` (T,) seconds;
-    ``fps``, ``width``, ``height`` of the video; ``detector_runs`` count.
-    """
-
-    world: np.ndarray
-    image: np.ndarray
-    visibility: np.ndarray
-    presence: np.ndarray
-    score: np.ndarray
-    found: np.ndarray
-    times: np.ndarray
-    fps: float
-    width: int
-    height: int
-    detector_runs: int = 0
-    rois: list = field(default_factory=list, repr=False)
-
-    @classmethod
-    def stack(cls, frames: list, times: list[float], fps: float, width: int, height: int) -> TrackResult:
-        """The per-frame :class:`PoseFrame` results of one video stacked into arrays."""
-        return cls(
-            world=np.stack([f.world for f in frames]),
-            image=np.stack([f.image for f in frames]),
-            visibility=np.stack([f.visibility for f in frames]),
-            presence=np.stack([f.presence for f in frames]),
-            score=np.array([f.score for f in frames]),
-            found=np.array([f.found for f in frames], dtype=bool),
-            times=np.array(times),
-            fps=fps,
-            width=width,
-            height=height,
-            detector_runs=sum(f.detected for f in frames),
-            rois=[f.roi for f in frames],
-        )
-
-    @property
-    def found_fraction(self) -> float:
-        return float(self.found.mean()) if len(self.found) else 0.0
 
 
 class PoseTracker:

@@ -6,14 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from lifting.blazepose.landmarks import POSE_LANDMARKS
+from lifting.blazepose.results import POSE_LANDMARKS, TrackResult
 from lifting.blazepose.synthetic import (
     draw_humanoid,
     humanoid_frame,
     humanoid_joints,
     write_walking_clip,
 )
-from lifting.blazepose.tracker import TrackResult
 from lifting.lift import track
 
 # BlazePose index -> synthetic joint (the figure faces the camera: its left is image right)

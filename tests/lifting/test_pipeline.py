@@ -258,3 +258,13 @@ def test_lift_video_tracks_in_a_child_only_while_torch_is_still_loading(monkeypa
     monkeypatch.setitem(sys.modules, preload.RECONSTRUCT, fake)
     lift.lift_video(tmp_path / "v.mp4")
     assert calls == ["child", "here", "here", "here"]
+
+
+def test_the_child_hands_back_a_missing_model_error(tmp_path, monkeypatch):
+    from lifting.blazepose.assets import CACHE_ENV, WHEEL_ENV, ModelUnavailableError
+    from lifting.track_process import track_in_child
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "empty-cache"))
+    monkeypatch.setenv(WHEEL_ENV, str(tmp_path / "no-such.whl"))  # offline: no download is tried
+    with pytest.raises(ModelUnavailableError, match="no-such.whl"):
+        track_in_child(tmp_path / "v.mp4")

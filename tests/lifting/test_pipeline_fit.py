@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from lifting.blazepose.landmarks import POSE_LANDMARKS
+from lifting.blazepose.results import POSE_LANDMARKS
 from lifting.camera import solve_translation
 from lifting.filtering import interpolate_gaps, longest_segment, lowpass, runs
 from lifting.fit import (
