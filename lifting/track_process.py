@@ -28,7 +28,9 @@ def track_in_child(path: str | Path, progress: bool = False, span: Span = (None,
     """:func:`lifting.lift.track` of ``path`` run by a child Python; raises the same one-line errors."""
     threads = max(1, min(2, (os.cpu_count() or 2) - 1))
     args = [str(path), *("-" if s is None else repr(float(s)) for s in span), "1" if progress else "0", str(threads)]
-    proc = subprocess.run([sys.executable, "-m", "lifting.track_process", *args], stdout=subprocess.PIPE, check=False)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))  # the modules this process sees
+    proc = subprocess.run([sys.executable, "-m", "lifting.track_process", *args], stdout=subprocess.PIPE, env=env,
+                          check=False)
     try:
         status, payload = pickle.loads(proc.stdout)
     except Exception:  # noqa: BLE001 - no reply at all: the child died (its own error is on stderr above)
