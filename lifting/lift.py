@@ -112,11 +112,15 @@ def lift_video(
     t0 = time.perf_counter()
     fresh = preload.RECONSTRUCT not in sys.modules
     preload.start(preload.RECONSTRUCT)  # imported beside the tracking
-    if fresh and tracker is None and not callable(progress):  # then the import and the tracking share no GIL
-        from lifting.track_process import track_in_child
+    result = None
+    if fresh and tracker is None and not callable(progress) and sys.executable:  # the import and tracking share no GIL
+        from lifting.track_process import ChildFailedError, track_in_child
 
-        result = track_in_child(path, bool(progress), span)
-    else:
+        try:
+            result = track_in_child(path, bool(progress), span)
+        except ChildFailedError:  # e.g. an embedding application whose sys.executable is not Python
+            result = None
+    if result is None:
         result = track(path, progress, tracker, span)
     t1 = time.perf_counter()
     lifted = preload.finish(preload.RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)

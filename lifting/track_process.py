@@ -24,6 +24,10 @@ from lifting.blazepose.results import TrackResult
 from motioncore.span import Span
 
 
+class ChildFailedError(RuntimeError):
+    """The child gave no reply (it could not start or died); the caller may track in-process instead."""
+
+
 def track_in_child(path: str | Path, progress: bool = False, span: Span = (None, None)) -> TrackResult:
     """:func:`lifting.lift.track` of ``path`` run by a child Python; raises the same one-line errors."""
     threads = max(1, min(2, (os.cpu_count() or 2) - 1))
@@ -34,7 +38,7 @@ def track_in_child(path: str | Path, progress: bool = False, span: Span = (None,
     try:
         status, payload = pickle.loads(proc.stdout)
     except Exception:  # noqa: BLE001 - no reply at all: the child died (its own error is on stderr above)
-        raise RuntimeError(f"{path}: the tracking process exited with status {proc.returncode} without a result") from None
+        raise ChildFailedError(f"{path}: the tracking process exited with status {proc.returncode} without a result") from None
     if status == "ValueError":
         raise ValueError(payload)
     if status == "ModelUnavailableError":  # imported only here: assets imports onnxruntime

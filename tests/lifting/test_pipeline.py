@@ -225,7 +225,8 @@ def test_the_background_import_hands_its_error_to_the_caller():
     assert "json" not in preload._threads and preload.finish("json").dumps([1]) == "[1]"
 
 
-def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path):
+def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path, monkeypatch):
+    from lifting import track_process
     from lifting.lift import track
     from lifting.track_process import track_in_child
 
@@ -236,6 +237,9 @@ def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tm
         assert (there.fps, there.width, there.height) == (here.fps, here.width, here.height)
     with pytest.raises(ValueError, match=r"^video file not found: .*nope\.mp4$"):
         track_in_child(tmp_path / "nope.mp4")
+    monkeypatch.setattr(sys, "executable", "/bin/false")  # not a Python: no reply
+    with pytest.raises(track_process.ChildFailedError, match="without a result"):
+        track_in_child(rendered[0])
 
 
 def test_lift_video_tracks_in_a_child_only_while_torch_is_still_loading(monkeypatch, tmp_path):
@@ -249,15 +253,21 @@ def test_lift_video_tracks_in_a_child_only_while_torch_is_still_loading(monkeypa
     fake = types.SimpleNamespace(lift_track=lambda result, *a, **k: types.SimpleNamespace(info={}))
     monkeypatch.setattr(preload, "start", lambda name: None)
     monkeypatch.setattr(preload, "finish", lambda name: fake)
-    monkeypatch.setattr(track_process, "track_in_child", lambda *a: calls.append("child"))
-    monkeypatch.setattr(lift, "track", lambda *a: calls.append("here"))
+    monkeypatch.setattr(track_process, "track_in_child", lambda *a: calls.append("child") or "a track")
+    monkeypatch.setattr(lift, "track", lambda *a: calls.append("here") or "a track")
     monkeypatch.delitem(sys.modules, preload.RECONSTRUCT, raising=False)
     lift.lift_video(tmp_path / "v.mp4", progress=True)
     lift.lift_video(tmp_path / "v.mp4", progress=print)
     lift.lift_video(tmp_path / "v.mp4", tracker=object())
+    def no_reply(*a):
+        calls.append("child failed")
+        raise track_process.ChildFailedError("no reply")
+
+    monkeypatch.setattr(track_process, "track_in_child", no_reply)
+    lift.lift_video(tmp_path / "v.mp4")  # a child that cannot run: tracked here instead
     monkeypatch.setitem(sys.modules, preload.RECONSTRUCT, fake)
     lift.lift_video(tmp_path / "v.mp4")
-    assert calls == ["child", "here", "here", "here"]
+    assert calls == ["child", "here", "here", "child failed", "here", "here"]
 
 
 def test_the_child_hands_back_a_missing_model_error(tmp_path, monkeypatch):
