@@ -2,9 +2,9 @@
 without sharing a GIL with the tracking loop (:func:`lifting.lift.lift_video` uses it in a process
 that has not imported that side yet; measured in docs/RESULTS.md, "The first hour").
 
-The child (``python -m lifting.track_process VIDEO START END PROGRESS THREADS``) runs
-:func:`lifting.lift.track` with ONNX inference on ``THREADS`` threads, one core fewer than the machine
-has (at most 2, the tracker's default), so the parent's import keeps a core: on this 2-core box that
+The child (``python -m lifting.track_process VIDEO START END PROGRESS CORES``) runs
+:func:`lifting.lift.track` with ONNX inference on one core fewer than the machine has (``CORES``; at most
+the tracker's default threads), so the parent's import keeps a core: on this 2-core box that
 took a 73-frame video from 2.40 s to 2.18 s (medians of 8 alternating runs) and a 230-frame one from
 4.7 s to 4.9 s, with identical output. It writes one pickled reply to stdout: ``("ok", TrackResult)``,
 or the name and message of an error a user can act on (a bad video's ValueError, the models'
@@ -30,8 +30,8 @@ class ChildFailedError(RuntimeError):
 
 def track_in_child(path: str | Path, progress: bool = False, span: Span = (None, None)) -> TrackResult:
     """:func:`lifting.lift.track` of ``path`` run by a child Python; raises the same one-line errors."""
-    threads = max(1, min(2, (os.cpu_count() or 2) - 1))
-    args = [str(path), *("-" if s is None else repr(float(s)) for s in span), "1" if progress else "0", str(threads)]
+    cores = max(1, (os.cpu_count() or 2) - 1)  # one left to this process's import
+    args = [str(path), *("-" if s is None else repr(float(s)) for s in span), "1" if progress else "0", str(cores)]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))  # the modules this process sees
     proc = subprocess.run([sys.executable, "-m", "lifting.track_process", *args], stdout=subprocess.PIPE, env=env,
                           check=False)
@@ -50,13 +50,14 @@ def track_in_child(path: str | Path, progress: bool = False, span: Span = (None,
 
 def main(argv: list[str] | None = None) -> None:
     from lifting.blazepose.assets import ModelUnavailableError
+    from lifting.blazepose.runtime import DEFAULT_THREADS
     from lifting.blazepose.tracker import PoseTracker
     from lifting.lift import track
 
-    video, start, end, progress, threads = argv if argv is not None else sys.argv[1:]
+    video, start, end, progress, cores = argv if argv is not None else sys.argv[1:]
     span = tuple(None if s == "-" else float(s) for s in (start, end))
     try:
-        reply = ("ok", track(video, progress == "1", PoseTracker(num_threads=int(threads)), span))
+        reply = ("ok", track(video, progress == "1", PoseTracker(num_threads=min(DEFAULT_THREADS, int(cores))), span))
     except ModelUnavailableError as error:  # the errors a user can act on travel back as they are
         reply = ("ModelUnavailableError", str(error))
     except ValueError as error:

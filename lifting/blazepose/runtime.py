@@ -6,8 +6,10 @@ from pathlib import Path
 
 import onnxruntime as ort
 
+DEFAULT_THREADS = 2  # ONNX intra-op threads of a session (and of the tracker's two)
 
-def make_session(path: str | Path, num_threads: int = 2) -> ort.InferenceSession:
+
+def make_session(path: str | Path, num_threads: int = DEFAULT_THREADS) -> ort.InferenceSession:
     """CPU session with ``num_threads`` intra-op threads and spinning disabled.
 
     Spinning threads of one session steal the cores the other session (detector

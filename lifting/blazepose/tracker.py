@@ -31,7 +31,7 @@ from lifting.blazepose.detector import Detection, PoseDetector
 from lifting.blazepose.filters import OneEuroFilter
 from lifting.blazepose.geometry import Roi, roi_from_alignment_points
 from lifting.blazepose.landmarks import NUM_LANDMARKS, LandmarkModel, LandmarkOutput
-from lifting.blazepose.runtime import make_session
+from lifting.blazepose.runtime import DEFAULT_THREADS, make_session
 
 _HIP_CENTRE, _BODY_POINT = 33, 34  # auxiliary landmark indices
 _MP_TO_Y_UP = np.array([1.0, -1.0, -1.0])
@@ -90,7 +90,7 @@ class PoseTracker:
         models: dict[str, Path] | None = None,
         *,
         cache_dir: str | Path | None = None,
-        num_threads: int = 2,
+        num_threads: int = DEFAULT_THREADS,
         min_detection_score: float = 0.5,
         min_pose_score: float = 0.5,
         smooth_roi: bool = True,
