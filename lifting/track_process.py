@@ -64,6 +64,9 @@ def main(argv: list[str] | None = None) -> None:
         reply = ("ValueError", str(error))
     sys.stdout.buffer.write(pickle.dumps(reply))
     sys.stdout.buffer.flush()
+    import gc
+
+    gc.freeze()  # the exit skips a last sweep over the imports' objects (as video2style.cli.console_main)
 
 
 if __name__ == "__main__":

