@@ -48,6 +48,11 @@ def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     src, _ = read_bvh(SAMPLES / "run_prior.bvh")
     assert out.skeleton.names == src.skeleton.names and out.num_frames == src.num_frames and out.fps == src.fps
     assert 0.0 <= info["skating_after"] <= info["skating_before"] + 1e-6
+    from evaluation.metrics import foot_skating_ratio
+    from video2style.pipeline import read_clip
+
+    content = read_clip(SAMPLES / "run_prior.bvh").canonical  # what it passes on, said beside the result's
+    assert info["skating_content"] == foot_skating_ratio(content.global_positions(), content.fps)
     assert torch.isfinite(out.lrot).all()
 
 

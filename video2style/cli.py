@@ -248,8 +248,9 @@ def cmd_apply(args) -> None:
         if info.get("detected"):
             extra = f"; read as {info['detected']}: {'neutralised first' if info['neutralized'] else 'not neutralised'}"
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        skate = (f", planted feet sliding in {100 * info['skating_before']:.1f}% of frames -> "
-                 f"{100 * info['skating_after']:.1f}% after IK" if "skating_after" in info else "")
+        skate = (f", feet sliding on the floor in {100 * info['skating_before']:.1f}% of frames -> "
+                 f"{100 * info['skating_after']:.1f}% after IK (the content clip: {100 * info['skating_content']:.1f}%)"
+                 if "skating_after" in info else "")
         tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
               f"{tempo}{extra}{skate})")

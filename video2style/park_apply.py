@@ -115,7 +115,7 @@ def apply_stgcn_file(model, path: Path, out_dir: Path, request: StgcnRequest, jo
     skating: list[dict] = []
     results = stylize_clip(model, clip, codes, skating=skating)
     info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
-            "skating_before": max(r["skating_before"] for r in skating), "skating_after": max(r["skating_after"] for r in skating)}
+            **{key: max(r[key] for r in skating) for key in ("skating_before", "skating_after", "skating_content")}}
     info.update(write_outputs(clip, results, Path(out_dir), preview=preview))
     info["seconds"] = time.time() - t0
     return info

@@ -331,13 +331,15 @@ def style_config(style):
 
 
 def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
-    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
+    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratios of the
+    result before and after cleanup and of the content itself (a content clip whose feet slide passes it on)."""
     from evaluation.metrics import foot_skating_ratio
     from motioncore.cleanup import cleanup_feet
 
     cleaned = cleanup_feet(motion, reference=content)
     return cleaned, {"skating_before": foot_skating_ratio(motion.global_positions(), motion.fps),
-                     "skating_after": foot_skating_ratio(cleaned.global_positions(), cleaned.fps)}
+                     "skating_after": foot_skating_ratio(cleaned.global_positions(), cleaned.fps),
+                     "skating_content": foot_skating_ratio(content.global_positions(), content.fps)}
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
