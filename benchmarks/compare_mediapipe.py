@@ -19,7 +19,6 @@ import argparse
 import math
 import os
 import statistics
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -52,9 +51,9 @@ def main() -> None:
     args = ap.parse_args()
     import cv2
 
-    ours_cmd = Path(sys.executable).with_name("video2style")
-    if not ours_cmd.is_file():
-        ours_cmd = Path(shutil.which("video2style") or "video2style")
+    from video2style.paths import console_script
+
+    ours_cmd = console_script()
     env = dict(os.environ, PYTHONPATH=str(args.mediapipe), GLOG_minloglevel="3", TF_CPP_MIN_LOG_LEVEL="3")
     print(f"{'video':34s} {'frames':>6s} {'ours s':>7s} {'MediaPipe s':>11s} {'ours/MP':>8s} {'pairs median':>12s}")
     ratios = []

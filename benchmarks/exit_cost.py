@@ -14,7 +14,6 @@ them all) and each prints its median and best wall time:
 from __future__ import annotations
 
 import argparse
-import shutil
 import statistics
 import subprocess
 import sys
@@ -31,10 +30,9 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=8)
     args = ap.parse_args()
     from video2style.demo import SAMPLES
+    from video2style.paths import console_script
 
-    script = Path(sys.executable).with_name("video2style")
-    if not script.is_file():
-        script = Path(shutil.which("video2style") or "video2style")
+    script = console_script()
     with tempfile.TemporaryDirectory() as tmp:
         apply = ["apply", str(args.style), str(SAMPLES / "walk_prior.bvh"), "-o", tmp, "--no-preview"]
         variants = {

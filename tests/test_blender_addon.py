@@ -3,7 +3,6 @@ import copy
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -52,6 +51,7 @@ def test_the_addon_keys_a_styled_copy_of_the_action(tmp_path):
     from tests.rig_corpus import case
     from transfer.lora import add_lora, lora_state
     from transfer.style import Style
+    from video2style.paths import console_script
     from video2style.pipeline import load_models
 
     c = case("mixamo")
@@ -61,7 +61,7 @@ def test_the_addon_keys_a_styled_copy_of_the_action(tmp_path):
     add_lora(model, rank=8)  # a style of zero adapters: the style model is the prior, the result the content
     style = tmp_path / "zero.v2s"
     Style({k: torch.zeros_like(v) for k, v in lora_state(model).items()}, {"style": "zero", "rank": 8}).save(style)
-    exe = shutil.which("video2style") or str(Path(sys.executable).with_name("video2style"))
+    exe = str(console_script())
     script = tmp_path / "run.py"
     script.write_text(SCRIPT)
     args = json.dumps({"clip": str(clip), "addon": str(ADDON), "exe": exe, "style": str(style)})

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import os
+import shutil
+import sys
 from pathlib import Path
 
 
@@ -16,3 +18,10 @@ def cache_dir() -> Path:
 
 def default_dataset_dir() -> Path:
     return cache_dir() / "dataset"
+
+
+def console_script() -> Path:
+    """The ``video2style`` console script installed beside this interpreter (what a user's shell runs in
+    this environment; a pyenv shim on PATH would add its own start-up), else the one on PATH."""
+    beside = Path(sys.executable).with_name("video2style")
+    return beside if beside.is_file() else Path(shutil.which("video2style") or "video2style")
