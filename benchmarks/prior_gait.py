@@ -1,9 +1,9 @@
 """How the shipped prior's text-to-motion walks step, against real walks: foot skating and ankle lift.
 
-    python benchmarks/prior_gait.py [--seeds 8] [--dataset] [REAL.bvh ...]
+    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--dataset] [REAL.bvh ...]
 
-For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: 50
-DDIM steps, guidance 2.5) is measured twice: decoded from its rotation channels (``representation.decode``,
+For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: by
+default 50 DDIM steps, guidance 2.5) is measured twice: decoded from its rotation channels (``representation.decode``,
 what the pipeline uses) and from its position channels (``representation.decode_positions``); the BVH files given (e.g. ../shared/data/xia_test/neutral_*.bvh)
 are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
 ("normal" style, unmirrored) training clips of each of those actions in the dataset cache. Columns: the foot-skating ratio of ``evaluation.metrics`` (frames where a foot
@@ -36,6 +36,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("real", nargs="*", type=Path, help="BVH files of real walks to compare with")
     ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--steps", type=int, default=50, help="DDIM steps (default: 50, as the pipeline)")
+    ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance (default: 2.5)")
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
     args = ap.parse_args()
     import torch
@@ -49,7 +51,7 @@ def main() -> None:
     text = m.text_encoder.encode(list(CAPTIONS))
     rows: dict[str, list[tuple[float, float]]] = {}
     for seed in range(args.seeds):
-        x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), text, 80, 50, 2.5,
+        x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), text, 80, args.steps, args.guidance,
                      torch.Generator().manual_seed(seed))
         for caption, feats in zip(CAPTIONS, x * m.std + m.mean):
             rows.setdefault(f"prior: {caption}", []).append(gait(decode(feats)))
