@@ -20,6 +20,7 @@ from video2style.pipeline import (
     Clip,
     cleanup_feet_measured,
     read_clip,
+    skating,
     weights_path,
     write_outputs,
 )
@@ -112,10 +113,11 @@ def apply_stgcn_file(model, path: Path, out_dir: Path, request: StgcnRequest, jo
     t0 = time.time()
     clip = read_clip(path, joint_map)
     codes = style_codes(model, request, joint_map)
-    skating: list[dict] = []
-    results = stylize_clip(model, clip, codes, skating=skating)
+    ratios: list[dict] = []
+    results = stylize_clip(model, clip, codes, skating=ratios)
     info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
-            **{key: max(r[key] for r in skating) for key in ("skating_before", "skating_after", "skating_content")}}
+            "skating_before": max(r["skating_before"] for r in ratios), "skating_after": max(r["skating_after"] for r in ratios),
+            "skating_content": skating(clip.canonical)}
     info.update(write_outputs(clip, results, Path(out_dir), preview=preview))
     info["seconds"] = time.time() - t0
     return info

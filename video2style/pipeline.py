@@ -264,7 +264,7 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
     ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
     (only when the motion encoder reads a styled clip confidently), always or never.
     Returns the result and what was decided (``detected``, ``neutralized``) with the foot-skating ratios
-    before and after cleanup. Runs on ``model``'s device (the prior is loaded there too); the result is on the CPU.
+    before and after cleanup and of the content itself. Runs on ``model``'s device (the prior is loaded there too); the result is on the CPU.
     """
     from dataclasses import replace
 
@@ -281,8 +281,9 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
                                                 neutralize)
         detected = reading.describe()
     raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
-    result, skating = cleanup_feet_measured(raw, content)
-    return result, {"detected": detected, "neutralized": neutral_text is not None, **skating}
+    result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
+    return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
+                    "skating_content": skating(content)}
 
 
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
@@ -330,16 +331,19 @@ def style_config(style):
     return StyleConfig(**style.meta.get("config", {}))
 
 
-def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
-    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratios of the
-    result before and after cleanup and of the content itself (a content clip whose feet slide passes it on)."""
+def skating(motion: Motion) -> float:
+    """Foot-skating ratio of a canonical motion (:func:`evaluation.metrics.foot_skating_ratio`)."""
     from evaluation.metrics import foot_skating_ratio
+
+    return foot_skating_ratio(motion.global_positions(), motion.fps)
+
+
+def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
+    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
     from motioncore.cleanup import cleanup_feet
 
     cleaned = cleanup_feet(motion, reference=content)
-    return cleaned, {"skating_before": foot_skating_ratio(motion.global_positions(), motion.fps),
-                     "skating_after": foot_skating_ratio(cleaned.global_positions(), cleaned.fps),
-                     "skating_content": foot_skating_ratio(content.global_positions(), content.fps)}
+    return cleaned, {"skating_before": skating(motion), "skating_after": skating(cleaned)}
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
