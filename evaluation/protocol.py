@@ -41,6 +41,7 @@ from evaluation.metrics import (
     foot_contact_agreement,
     foot_skating_ratio,
     frechet_distance,
+    limb_stray,
 )
 from motioncore.representation import decode_positions
 from transfer.captions import BANDAI2_CONTENTS, STYLES
@@ -50,6 +51,10 @@ Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
 
 FULL = {"per_content": 9, "examples_per_style": 7}
 QUICK = {"per_content": 2, "examples_per_style": 1}
+# The unseen-style protocol (models trained without the held-out styles): neutral content only, every neutral
+# clip of each content in the full run (6 per content on test, 3 on val), targets the held-out (or the seen) styles.
+UNSEEN_FULL = {"per_content": 6, "examples_per_style": 7}
+HELD_OUT_STYLES = ("elderly", "exhausted", "feminine")  # strong, subtle and between: see docs/RESULTS.md
 
 
 @dataclass(frozen=True)
@@ -70,11 +75,14 @@ def protocol_clips(records: Sequence[ClipRecord], split: str = "test") -> list[i
 
 def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: int = 0,
                     per_content: int | None = None, examples_per_style: int | None = None,
-                    examples_pool: int | None = None, split: str = "test") -> list[Transfer]:
+                    examples_pool: int | None = None, split: str = "test", sources: Sequence[str] | None = None,
+                    targets: Sequence[str] | None = None) -> list[Transfer]:
     """The seeded list of transfers (see the module doc); counts default to ``QUICK`` or ``FULL``.
 
     ``examples_pool``: draw each style's examples from a fixed seeded subset of this many of its
     clips (for methods that learn per example; default: all of the style's test originals).
+    ``sources`` / ``targets``: only content clips of these styles, only transfers to these styles (default:
+    all seven each; the unseen-style protocol takes neutral content to the held-out styles).
     """
     sizes = QUICK if quick else FULL
     per_content = sizes["per_content"] if per_content is None else per_content
@@ -90,6 +98,12 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
     for i in pool:
         by_style.setdefault(records[i].style, []).append(i)
     styles = [s for s in STYLES if s in by_style]
+    for name, given in (("sources", sources), ("targets", targets)):
+        unknown = sorted(set(given or ()) - set(styles))
+        if unknown:
+            raise ValueError(f"select_protocol: expected {name} among {', '.join(styles)}, got {', '.join(unknown)}")
+    source_pool = [s for s in styles if sources is None or s in sources]
+    target_pool = [s for s in styles if targets is None or s in targets]
     if examples_pool is not None:
         if examples_pool < 1:
             raise ValueError(f"select_protocol: expected examples_pool >= 1, got {examples_pool}")
@@ -99,7 +113,9 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
 
     items = []
     for content in contents:
-        source_styles = [s for s in styles if (content, s) in cells]
+        source_styles = [s for s in source_pool if (content, s) in cells]
+        if not source_styles:
+            continue
         order: list[str] = []
         while len(order) < per_content:  # shuffled cycles: source styles as even as possible
             cycle = source_styles[:]
@@ -112,7 +128,7 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
                 used[source], remaining = [], list(cells[(content, source)])
             ci = rng.choice(remaining)
             used.setdefault(source, []).append(ci)
-            for target in styles:
+            for target in target_pool:
                 if target == source:
                     continue
                 candidates = by_style[target]
@@ -159,21 +175,23 @@ class _Scorer:
 def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True, seed: int = 0,
                  content_classifier: Path | None = None, style_classifier: Path | None = None,
                  per_content: int | None = None, examples_per_style: int | None = None, progress: bool = True,
-                 examples_pool: int | None = None, split: str = "test") -> list[dict]:
+                 examples_pool: int | None = None, split: str = "test", sources: Sequence[str] | None = None,
+                 targets: Sequence[str] | None = None) -> list[dict]:
     """Run every method on the protocol's transfers; returns one row per method plus the real-data reference row first.
 
     Row keys: ``method``, ``transfers``, ``fmd``, ``fmd_style``, ``cra``, ``sra``, ``skating``,
     ``contact_agreement``, ``sec_per_transfer``, ``seconds`` (the method's transfer time in all).
     ``fmd_style``: for each target style S, the Fréchet distance between the style classifier's features of
     the outputs for S and of the real clips of style S, averaged over S (a style-aware FMD).
-    ``split``: "test" to report; "val" to choose settings.
+    ``split``: "test" to report; "val" to choose settings. ``sources``/``targets``: see :func:`select_protocol`.
     """
     data = MotionDataset(data_dir, split=split)
     content_clf = load_classifier(content_classifier or default_weights("content"))
     style_clf = load_classifier(style_classifier or default_weights("style"))
     fps = 20.0
     scorer = _Scorer(content_clf, style_clf, fps)
-    items = select_protocol(data.records, quick, seed, per_content, examples_per_style, examples_pool, split)
+    items = select_protocol(data.records, quick, seed, per_content, examples_per_style, examples_pool, split,
+                            sources, targets)
 
     real_idx = protocol_clips(data.records, split)
     real_raw = [data.clip(i, normalized=False) for i in real_idx]
@@ -181,7 +199,7 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
     real = scorer.score(real_raw, [data.records[i].content for i in real_idx], real_styles)
     rows = [{"method": f"real {split} clips (reference)", "transfers": len(real_idx), "fmd": None, "fmd_style": None,
              "cra": real["cra"],
-             "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None}]
+             "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None, "stray": None, "stray_share": None}]
 
     for name, method in methods.items():
         outputs, seconds = [], 0.0
@@ -201,10 +219,23 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
             "sra": gen["sra"],
             "skating": gen["skating"],
             "contact_agreement": foot_contact_agreement([data.clip(it.content_index, normalized=False) for it in items], outputs, fps),
+            **stray_summary([data.clip(it.content_index, normalized=False) for it in items],
+                            [data.clip(it.style_index, normalized=False) for it in items], outputs),
             "sec_per_transfer": seconds / len(items),
             "seconds": seconds,
         })
     return rows
+
+
+STRAY_LIMIT = 0.15  # metres: a limb's time-mean place this far off the content-to-example segment is a stray
+
+
+def stray_summary(contents: Sequence[torch.Tensor], examples: Sequence[torch.Tensor],
+                  outputs: Sequence[torch.Tensor]) -> dict:
+    """``stray``: median over transfers of the worst limb's :func:`evaluation.metrics.limb_stray` (metres);
+    ``stray_share``: the share of transfers with a limb strayed over :data:`STRAY_LIMIT`. Raw features."""
+    worst = torch.stack([limb_stray(c, e, o).max() for c, e, o in zip(contents, examples, outputs)])
+    return {"stray": float(worst.median()), "stray_share": float((worst > STRAY_LIMIT).float().mean())}
 
 
 def style_fmd(real_feats: torch.Tensor, real_styles: Sequence[str], gen_feats: torch.Tensor,
@@ -226,12 +257,14 @@ def format_table(rows: Sequence[dict]) -> str:
         return "–" if v is None else format(v, fmt)
 
     lines = [("| method | transfers | FMD ↓ | target-style FMD ↓ | CRA ↑ (%) | SRA ↑ (%) | foot skating (%) | "
-             "contact agreement (%) | s / transfer |"),
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "contact agreement (%) | stray limb, median (cm) ↓ | strays > 15 cm (%) ↓ | s / transfer |"),
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
-        pct = {k: None if r.get(k) is None else 100 * r[k] for k in ("cra", "sra", "skating", "contact_agreement")}
+        pct = {k: None if r.get(k) is None else 100 * r[k]
+               for k in ("cra", "sra", "skating", "contact_agreement", "stray", "stray_share")}
         lines.append(f"| {r['method']} | {r['transfers']} | {num(r.get('fmd'), '.2f')} | {num(r.get('fmd_style'), '.2f')} | "
                      f"{num(pct['cra'], '.1f')} | "
                      f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
+                     f"{num(pct['stray'], '.1f')} | {num(pct['stray_share'], '.0f')} | "
                      f"{num(r.get('sec_per_transfer'), '.4f')} |")
     return "\n".join(lines)

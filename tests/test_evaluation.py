@@ -12,6 +12,8 @@ from evaluation.protocol import (
     run_protocol,
     select_protocol,
 )
+from motioncore.representation import FEATURES
+from motioncore.skeleton import CANONICAL
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.checkpoints import save_model
@@ -122,3 +124,39 @@ def test_examples_pool_limits_distinct_style_examples():
     assert all(len({it.style_index for it in full if it.target_style == s}) == 3 for s in STYLES)
     with pytest.raises(ValueError, match="examples_pool"):
         select_protocol(recs, quick=True, examples_pool=0)
+
+
+def test_unseen_protocol_takes_neutral_content_to_the_held_out_styles():
+    from evaluation.protocol import HELD_OUT_STYLES, UNSEEN_FULL
+
+    recs = _bandai2_like_records()
+    items = select_protocol(recs, quick=False, seed=0, per_content=UNSEEN_FULL["per_content"], examples_pool=3,
+                            sources=("normal",), targets=HELD_OUT_STYLES)
+    assert {it.source_style for it in items} == {"normal"}
+    assert {it.target_style for it in items} == set(HELD_OUT_STYLES)
+    assert {recs[it.style_index].style for it in items} == set(HELD_OUT_STYLES)
+    content_clips = {it.content_index for it in items}
+    assert len(content_clips) == 10 * 6  # every neutral test clip of every content
+    assert len(items) == 10 * 6 * 3 * 3  # x 3 held-out styles x 3 examples each
+    with pytest.raises(ValueError, match="expected targets among"):
+        select_protocol(recs, targets=("grumpy",))
+
+
+def test_limb_stray_is_the_distance_off_the_content_to_example_segment():
+    from evaluation.metrics import LIMBS, limb_places, limb_stray
+    from motioncore.representation import encode
+    from tests.helpers import random_motion
+
+    content = encode(random_motion(seconds=2, seed=1))
+    example = encode(random_motion(seconds=3, seed=2))
+    assert limb_places(content).shape == (len(LIMBS), 3)
+    assert torch.allclose(limb_stray(content, example, content), torch.zeros(4), atol=1e-6)
+    assert torch.allclose(limb_stray(content, example, example), torch.zeros(4), atol=1e-5)
+    # a result that holds every limb 0.2 m above the content's place, across a level segment, strays 0.2 m
+    lifted = content.clone()
+    lifted[:, FEATURES.positions] += torch.tensor([0.0, 0.2, 0.0]).repeat(CANONICAL.num_joints - 1)
+    level = content.clone()
+    level[:, FEATURES.positions] += torch.tensor([0.3, 0.0, 0.0]).repeat(CANONICAL.num_joints - 1)
+    assert torch.allclose(limb_stray(content, level, lifted), torch.full((4,), 0.2), atol=1e-5)
+    with pytest.raises(ValueError, match="expected raw features"):
+        limb_stray(content[:, :10], example, content)

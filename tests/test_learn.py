@@ -131,3 +131,25 @@ def test_variants_that_learn_alike_share_their_styles(toys):
     other(content, style, "elderly", "walk")
     assert len([k for k in shared if k.startswith("style")]) == 2  # another loss: learned again
     assert regen.learn_seconds and diff.learn_seconds and diff.iterations == [4]
+
+
+@pytest.mark.parametrize("kw", [{"lambda_stat": 1.0}, {"lambda_stat": 1.0, "stat_reference": "neutral"},
+                                {"lambda_dir": 1.0, "lambda_s": 0.0}])
+def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
+    prior, encoder, text, cache = toys
+    data = MotionDataset(cache, "train")
+    plain, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config())
+    other, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(**kw))
+    assert all(torch.isfinite(v).all() for v in other.adapters.values())
+    assert any(not torch.equal(plain.adapters[k], other.adapters[k]) for k in plain.adapters)
+    assert other.meta["config"]["lambda_stat"] == kw.get("lambda_stat", 0.0)
+
+
+def test_words_matter_only_through_the_semantic_loss(toys):
+    prior, encoder, text, cache = toys
+    data = MotionDataset(cache, "train")
+    a, _ = learn_style(prior, encoder, text, data, data.clip(1), "proud", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
+    b, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
+    assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
+    with pytest.raises(ValueError, match="expected stat_reference"):
+        learn_style(prior, encoder, text, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))

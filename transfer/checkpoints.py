@@ -38,6 +38,26 @@ def load_config(path: Path, cls):
     return cls(**json.loads(meta["config"]))
 
 
+def resumed_config(path: Path, config, explicit: dict):
+    """The config a run goes on with: the one saved in the checkpoint at ``path`` when there is one (so a
+    resumed run keeps its own settings), else ``config``. ``explicit``: settings the user gave; they must
+    match the saved ones (:meth:`RunCheckpoint.resume` refuses a clash). Fields the saved config lacks (an
+    older checkpoint) keep ``config``'s values."""
+    from dataclasses import fields, replace
+
+    from safetensors import safe_open
+
+    path = Path(path)
+    if not path.is_file():
+        return config
+    with safe_open(str(path), framework="pt") as f:
+        saved = json.loads((f.metadata() or {}).get("config", "{}"))
+    known = {f.name for f in fields(config)}
+    current = asdict(config)
+    kept = {k: type(current[k])(v) if isinstance(current[k], tuple) else v for k, v in saved.items() if k in known}
+    return replace(config, **{k: v for k, v in kept.items() if k not in explicit})
+
+
 def optimizer_tensors(opt: torch.optim.Optimizer, names: dict[int, str]) -> dict[str, torch.Tensor]:
     out = {}
     for group in opt.param_groups:
@@ -99,7 +119,8 @@ class RunCheckpoint:
         with safe_open(str(self.path), framework="pt") as f:
             meta = f.metadata()
         saved = json.loads(meta["config"])
-        clash = {k: (saved.get(k), v) for k, v in explicit.items() if k in saved and saved[k] != v}
+        given = json.loads(json.dumps(explicit))  # tuples compare as the lists JSON gives back
+        clash = {k: (saved.get(k), v) for k, v in given.items() if k in saved and saved[k] != v}
         if clash:
             detail = ", ".join(f"{k}: checkpoint {a!r} vs given {b!r}" for k, (a, b) in clash.items())
             raise ValueError(f"{self.path}: cannot resume with different settings ({detail}); use a new output folder")

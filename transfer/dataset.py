@@ -29,7 +29,13 @@ from motioncore.motion import mirror, resample
 from motioncore.representation import FEATURES, encode
 from motioncore.retarget import make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
-from transfer.captions import MIRROR_CONTENT, STYLE_ALIASES, caption
+from transfer.captions import (
+    MIRROR_CONTENT,
+    NEUTRAL_STYLE,
+    STYLE_ALIASES,
+    STYLES,
+    caption,
+)
 
 _NAME = re.compile(r"dataset-(\d)_(?P<content>[a-z-]+?)_(?P<style>[a-z]+)_(?P<num>\d+)\.bvh$")
 STD_FLOOR = 1e-2
@@ -150,15 +156,22 @@ def build_dataset(
 class MotionDataset:
     """The cache loaded for training: normalised features and clip records of one split."""
 
-    def __init__(self, cache_dir: Path, split: str | None = "train"):
+    def __init__(self, cache_dir: Path, split: str | None = "train", exclude_styles: tuple[str, ...] = ()):
+        """``exclude_styles``: drop every clip of these styles (Bandai-1 aliases count as their Bandai-2 names),
+        for models trained without them (the unseen-style protocol). The feature statistics stay the cache's."""
         cache_dir = Path(cache_dir)
+        unknown = sorted(set(exclude_styles) - set(STYLES))
+        if unknown:
+            raise ValueError(f"MotionDataset: expected styles among {', '.join(STYLES)}, got {', '.join(unknown)}")
+        if NEUTRAL_STYLE in exclude_styles:
+            raise ValueError(f"MotionDataset: the neutral style {NEUTRAL_STYLE!r} cannot be excluded")
         path = cache_dir / "features.safetensors"
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no dataset cache; run `video2style dataset` first")
         data = load_file(str(path))
         self.features, self.mean, self.std = data["features"], data["mean"], data["std"]
         records = [ClipRecord(**r) for r in json.loads((cache_dir / "clips.json").read_text())]
-        self.records = [r for r in records if split is None or r.split == split]
+        self.records = [r for r in records if (split is None or r.split == split) and r.style not in exclude_styles]
 
     def __len__(self) -> int:
         return len(self.records)

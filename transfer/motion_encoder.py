@@ -19,7 +19,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from motioncore.representation import FEATURES
-from transfer.checkpoints import load_config, save_model
+from transfer.checkpoints import load_config, resumed_config, save_model
 from transfer.dataset import MotionDataset
 from transfer.device import model_device, resolve_device
 from transfer.layers import Block, MotionEmbedding
@@ -74,6 +74,7 @@ class EncoderTrainConfig:
     x0_aug: float = 0.5  # fraction of batches replaced by the prior's x0 predictions
     max_aug_step: int = 700
     seed: int = 0
+    exclude_styles: tuple[str, ...] = ()  # styles whose clips and captions the model never sees (unseen protocol)
 
 
 def alignment_losses(z: torch.Tensor, text: torch.Tensor, same: torch.Tensor, temperature: float):
@@ -92,8 +93,9 @@ def train_motion_encoder(data_dir: Path, prior_path: Path, out_dir: Path, config
     prior there too; the model starts from the same seeded weights on any device, batches and noise are drawn
     on the CPU."""
     device = resolve_device(device)
+    config = resumed_config(Path(out_dir) / "checkpoint.safetensors", config, explicit or {})
     torch.manual_seed(config.seed)
-    data = MotionDataset(data_dir, "train")
+    data = MotionDataset(data_dir, "train", exclude_styles=tuple(config.exclude_styles))
     text = caption_embeddings(data).to(device)
     captions = [r.caption for r in data.records]
     prior, _, _ = load_prior(prior_path)
@@ -125,7 +127,9 @@ def train_motion_encoder(data_dir: Path, prior_path: Path, out_dir: Path, config
     trainer.run(loss_fn, max_steps, max_minutes, progress=progress)
     card = {
         "model": "video2style motion encoder (transformer with a pooling token; text space of all-MiniLM-L6-v2)",
-        "data": "Bandai-Namco-Research-Motiondataset-1 and -2, train split, mirrored, 20 fps",
+        "data": "Bandai-Namco-Research-Motiondataset-1 and -2, train split, mirrored, 20 fps"
+                + (f"; every clip of the styles {', '.join(config.exclude_styles)} left out (clips and captions)"
+                   if config.exclude_styles else ""),
         "licence": "CC BY-NC 4.0, inherited from the Bandai-Namco training data",
         "steps": trainer.step, "wall_time_minutes": round(trainer.elapsed / 60, 1),
         "train_config": asdict(config), "model_config": asdict(model.config), "prior": Path(prior_path).name,

@@ -1,13 +1,14 @@
 """Training and loading of the text-conditioned motion diffusion prior."""
 from __future__ import annotations
 
+import csv
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import torch
 
-from transfer.checkpoints import save_model
+from transfer.checkpoints import resumed_config, save_model
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
 from transfer.device import model_device, resolve_device
@@ -31,6 +32,9 @@ class PriorTrainConfig:
     text_drop: float = 0.1
     velocity_weight: float = 1.0
     seed: int = 0
+    exclude_styles: tuple[str, ...] = ()  # styles whose clips and captions the model never sees (unseen protocol)
+    val_every: int = 250  # steps between validation losses (val.csv); 0 = none
+    val_windows: int = 128  # fixed val windows, noise and steps: the validation loss is comparable over a run
 
 
 def caption_embeddings(dataset: MotionDataset) -> torch.Tensor:
@@ -58,13 +62,70 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
     return rec + velocity_weight * vel, {"rec": rec.item(), "vel": vel.item()}
 
 
+class ValidationLoss:
+    """The diffusion loss of a model on a fixed set of windows of a split, with fixed noise and steps spread
+    evenly over the schedule, so values logged over a run (and across resumed runs) compare directly."""
+
+    def __init__(self, data: MotionDataset, text: torch.Tensor, scheduler: DiffusionScheduler, n: int, window: int,
+                 velocity_weight: float, seed: int = 12345, batch: int = 32):
+        gen = torch.Generator().manual_seed(seed)
+        self.x0, self.valid, idx = data.sample_windows(n, window, gen)
+        self.text = text[idx]
+        self.t = torch.linspace(0, scheduler.num_train_steps - 1, n).round().long()
+        self.noise = torch.randn(self.x0.shape, generator=gen)
+        self.scheduler, self.velocity_weight, self.batch = scheduler, velocity_weight, batch
+
+    @torch.no_grad()
+    def __call__(self, model) -> float:
+        device = model_device(model)
+        training = model.training
+        model.eval()
+        total, count = 0.0, 0
+        for s in range(0, len(self.t), self.batch):
+            sl = slice(s, s + self.batch)
+            x0, valid, t = self.x0[sl].to(device), self.valid[sl].to(device), self.t[sl].to(device)
+            x_t = self.scheduler.add_noise(x0, self.noise[sl].to(device), t)
+            pred = model(x_t, t, self.text[sl].to(device), valid)
+            rec = masked_mse(pred, x0, valid)
+            vel = masked_mse(pred[:, 1:] - pred[:, :-1], x0[:, 1:] - x0[:, :-1], valid[:, 1:] & valid[:, :-1])
+            total += float(rec + self.velocity_weight * vel) * len(t)
+            count += len(t)
+        model.train(training)
+        return total / count
+
+
+def read_val_log(path: Path) -> list[tuple[int, float]]:
+    """``[(step, val_loss), ...]`` from a run's ``val.csv`` (empty when there is none)."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    with open(path, newline="") as f:  # a resumed run may log a step again: the last value counts
+        by_step = {int(r["step"]): float(r["val_loss"]) for r in csv.DictReader(f)}
+    return sorted(by_step.items())
+
+
+def convergence(val_log: list[tuple[int, float]], fraction: float = 0.2) -> float | None:
+    """Relative fall of the validation loss over the last ``fraction`` of the steps (0.05 = fell 5 %), or
+    None while there are too few values. The campaign's rule: converged when this is below 0.02."""
+    if len(val_log) < 3:
+        return None
+    last_step, last = val_log[-1]
+    start = last_step * (1 - fraction)
+    before = [v for s, v in val_log if s <= start]
+    if not before:
+        return None
+    return (before[-1] - last) / before[-1]
+
+
 def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_minutes: float, max_steps: int = 10**9,
                 explicit: dict | None = None, progress: bool = True, device: str = "cpu") -> Trainer:
     """Train (or resume) the prior on ``device`` (:func:`transfer.device.resolve_device`); the model starts
     from the same seeded weights on any device, batches and noise are drawn on the CPU."""
     device = resolve_device(device)
+    out_dir = Path(out_dir)
+    config = resumed_config(out_dir / "checkpoint.safetensors", config, explicit or {})
     torch.manual_seed(config.seed)
-    data = MotionDataset(data_dir, "train")
+    data = MotionDataset(data_dir, "train", exclude_styles=tuple(config.exclude_styles))
     text = caption_embeddings(data).to(device)
     model = Denoiser(DenoiserConfig(width=config.width, layers=config.layers, heads=config.heads, ff=config.ff, dropout=config.dropout))
     model.to(device)
@@ -72,22 +133,46 @@ def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_min
     trainer.resume(explicit or {})
     gen = torch.Generator().manual_seed(config.seed * 1000003 + trainer.step)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
+    evaluate = None
+    if config.val_every > 0:
+        val_data = MotionDataset(data_dir, "val", exclude_styles=tuple(config.exclude_styles))
+        val_loss = ValidationLoss(val_data, caption_embeddings(val_data).to(device), scheduler, config.val_windows,
+                                  config.window, config.velocity_weight)
+        evaluate = _val_logger(val_loss, out_dir / "val.csv")
 
     def loss_fn(m, step):
         x0, valid, idx = data.sample_windows(config.batch_size, config.window, gen)
         drop = torch.rand(config.batch_size, generator=gen) < config.text_drop
         return diffusion_loss(m, scheduler, x0, valid, text[idx], drop, config.velocity_weight, gen)
 
-    trainer.run(loss_fn, max_steps, max_minutes, progress=progress)
+    trainer.run(loss_fn, max_steps, max_minutes, progress=progress, evaluate=evaluate, eval_every=config.val_every or 1)
     export_prior(trainer, data, out_dir / "denoiser.safetensors", data_dir)
     return trainer
+
+
+def _val_logger(val_loss: ValidationLoss, path: Path):
+    """The trainer's ``evaluate`` callback: the EMA model's validation loss, appended to ``path`` (step, val_loss)."""
+    def evaluate(ema, step: int) -> dict:
+        value = val_loss(ema)
+        new = not path.is_file()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a", newline="") as f:
+            if new:
+                f.write("step,val_loss\n")
+            f.write(f"{step},{value:.6f}\n")
+        return {"val_loss": value}
+
+    return evaluate
 
 
 def export_prior(trainer: Trainer, data: MotionDataset, path: Path, data_dir: Path) -> None:
     """EMA weights + normalisation stats as safetensors, with a JSON model card."""
     card = {
         "model": "video2style motion diffusion prior (MDM-style transformer, predicts x0)",
-        "data": f"Bandai-Namco-Research-Motiondataset-1 and -2 (train split of {Path(data_dir).name}), mirrored, 20 fps",
+        "data": f"Bandai-Namco-Research-Motiondataset-1 and -2 (train split of {Path(data_dir).name}), mirrored, 20 fps"
+                + (f"; every clip of the styles {', '.join(trainer.config.exclude_styles)} left out (clips and captions; "
+                   "the feature mean/std are the whole train split's)" if trainer.config.exclude_styles else ""),
+        "validation_loss": read_val_log(Path(trainer.out_dir) / "val.csv")[-1:] or None,
         "licence": "CC BY-NC 4.0, inherited from the Bandai-Namco training data",
         "steps": trainer.step,
         "wall_time_minutes": round(trainer.elapsed / 60, 1),

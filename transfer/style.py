@@ -32,6 +32,12 @@ from transfer.lora import add_lora, load_lora_state, lora_state, set_gain
 from transfer.sampling import denoise, denoising_steps, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, StyleConfig
+from transfer.style_losses import (
+    directional_loss,
+    neutral_shift,
+    statistics_loss,
+    style_shift,
+)
 
 TRAJECTORY = [FEATURES.root_rvel, FEATURES.root_lvel]  # inpainted: the root's path on the ground
 
@@ -215,6 +221,16 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     target_captions = sorted({dataset.records[i].caption for i in neutral})
     styled = {c: f"{c}, {style_words} style" for c in target_captions}
     target_emb = dict(zip(target_captions, text_encoder.encode([styled[c] for c in target_captions]).to(device)))
+    shift = None
+    if config.lambda_stat > 0:
+        same = [i for i in neutral if dataset.records[i].caption == neutral_text] if config.stat_reference == "neutral" else []
+        if config.stat_reference not in ("pair", "neutral"):
+            raise ValueError(f"learn_style: expected stat_reference 'pair' or 'neutral', got {config.stat_reference!r}")
+        shift = style_shift(example, pair) if not same else neutral_shift(example, [dataset.clip(i) for i in same])
+    if config.lambda_dir > 0:
+        with torch.no_grad():
+            z_ex, z_pair = motion_encoder(torch.stack([example, pair]))
+        direction = z_ex - z_pair
     steps = scheduler.set_timesteps(config.transfer_steps, config.transfer_step).tolist()
     history = []
     it, stopped_by = 0, "iterations"
@@ -238,11 +254,18 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
             target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
             loss_s = (1 - (z * target).sum(-1)).mean()
         loss = loss_rec + config.lambda_s * loss_s
-        if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
-            with record_function("learn: prior preservation"), torch.no_grad():
+        if config.lambda_p > 0 or shift is not None or config.lambda_dir > 0:
+            with record_function("learn: the prior on content"), torch.no_grad():
                 x0_p = overwrite(prior(y_c, torch.full((len(idx),), t, device=device), None, valid), xs, TRAJECTORY)
+        if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
             w = valid[..., None].to(x0_c.dtype)
             loss = loss + config.lambda_p * (((x0_c - x0_p) ** 2) * w).sum() / (w.sum() * x0_c.shape[-1])
+        if shift is not None:  # word-free: shift the content's statistics as the example shifts its pair's
+            loss = loss + config.lambda_stat * statistics_loss(x0_c, x0_p, valid, shift, config.stat_std)
+        if config.lambda_dir > 0:  # word-free: the change points the example's way in the encoder's space
+            with torch.no_grad():
+                z_p = motion_encoder(x0_p * valid[..., None], valid)
+            loss = loss + config.lambda_dir * directional_loss(z, z_p, direction)
         with record_function("learn: backward + step"):
             opt.zero_grad(set_to_none=True)
             loss.backward()

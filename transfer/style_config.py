@@ -31,3 +31,9 @@ class StyleConfig:
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
     # of multiplying its final difference
     delta_smoothing: float = 0.0  # difference mode: Gaussian sigma (frames) of a temporal low-pass on the difference
+    lambda_stat: float = 0.0  # word-free: the style's change on content shifts feature statistics as the example
+    # differs from its pair (transfer.style_losses.statistics_loss)
+    stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
+    stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
+    # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
+    lambda_dir: float = 0.0  # word-free: the change in the motion encoder's space points as example - pair does

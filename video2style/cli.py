@@ -157,24 +157,36 @@ def cmd_models(args) -> None:
         print(f"  {name}: {path}")
 
 
-def cmd_train_prior(args) -> None:
+def _explicit(args, config_class) -> dict:
+    """The training settings the user gave on the command line (the rest: the resumed run's own, or defaults)."""
     from dataclasses import fields
 
-    from transfer.prior import PriorTrainConfig, train_prior
+    explicit = {f.name: getattr(args, f.name) for f in fields(config_class) if getattr(args, f.name, None) is not None}
+    if "exclude_styles" in explicit:
+        explicit["exclude_styles"] = tuple(sorted(set(explicit["exclude_styles"])))
+    return explicit
 
-    explicit = {f.name: getattr(args, f.name) for f in fields(PriorTrainConfig) if getattr(args, f.name, None) is not None}
+
+def cmd_train_prior(args) -> None:
+    from transfer.prior import PriorTrainConfig, convergence, read_val_log, train_prior
+
+    explicit = _explicit(args, PriorTrainConfig)
     config = PriorTrainConfig(**explicit)
     trainer = train_prior(args.data, args.out, config, args.max_minutes, args.max_steps, explicit, progress=not args.quiet,
                           device=args.device)
     print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'denoiser.safetensors'}")
+    log = read_val_log(args.out / "val.csv")
+    fall = convergence(log)
+    if fall is not None:
+        verdict = "converged (< 2 %)" if fall < 0.02 else "not converged yet: run again to continue"
+        print(f"validation loss {log[-1][1]:.4f} at step {log[-1][0]}; fell {100 * fall:.1f} % over the last fifth "
+              f"of the steps: {verdict}")
 
 
 def cmd_train_encoder(args) -> None:
-    from dataclasses import fields
-
     from transfer.motion_encoder import EncoderTrainConfig, train_motion_encoder
 
-    explicit = {f.name: getattr(args, f.name) for f in fields(EncoderTrainConfig) if getattr(args, f.name, None) is not None}
+    explicit = _explicit(args, EncoderTrainConfig)
     trainer = train_motion_encoder(args.data, args.prior, args.out, EncoderTrainConfig(**explicit), args.max_minutes,
                                    args.max_steps, explicit, progress=not args.quiet, device=args.device)
     print(f"step {trainer.step}, {trainer.elapsed / 60:.1f} min in all; weights: {args.out / 'motion_encoder.safetensors'}")
@@ -362,7 +374,8 @@ def cmd_evaluate(args) -> None:
 
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
                          examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights, split=args.split,
-                         strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache):
+                         strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache,
+                         unseen=args.unseen, unseen_models=args.unseen_models, words=args.style_words):
         print(line)
 
 
@@ -409,6 +422,15 @@ def _add_device(parser: argparse.ArgumentParser) -> None:
     from transfer.device import DEVICE_HELP, DEVICES
 
     parser.add_argument("--device", choices=DEVICES, default="cpu", help=DEVICE_HELP)
+
+
+def _add_exclude_styles(parser: argparse.ArgumentParser) -> None:
+    from transfer.captions import NEUTRAL_STYLE, STYLES
+
+    parser.add_argument("--exclude-styles", dest="exclude_styles", nargs="+", default=None, metavar="STYLE",
+                        choices=[s for s in STYLES if s != NEUTRAL_STYLE],
+                        help="leave every clip of these styles (and their captions) out of training, for the unseen-style "
+                             "protocol (evaluate --unseen); a resumed run keeps its own")
 
 
 def _device_error(args) -> str | None:
@@ -573,6 +595,9 @@ def build_parser() -> argparse.ArgumentParser:
                       ("lr", float), ("seed", int)]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
+    t.add_argument("--val-every", dest="val_every", type=int, default=None,
+                   help="steps between validation losses, logged to OUT/val.csv (default: 250; 0: none)")
+    _add_exclude_styles(t)
     _add_device(t)
     t.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     t.set_defaults(func=cmd_train_prior)
@@ -586,6 +611,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", int)]:
         e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
+    _add_exclude_styles(e)
     _add_device(e)
     e.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     e.set_defaults(func=cmd_train_encoder)
@@ -622,7 +648,9 @@ def build_parser() -> argparse.ArgumentParser:
     tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")
 
     ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
-                        epilog="example: video2style evaluate --quick --methods identity stgcn ours")
+                        epilog="examples:\n  video2style evaluate --quick --methods identity stgcn ours\n"
+                               "  video2style evaluate --unseen --quick --split val --methods identity ours",
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
     ev.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md, rows.json, tradeoff.png")
     ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
@@ -637,6 +665,15 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
     ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
     ev.add_argument("--seed", type=int, default=0, help="seed for example draws and noise (default: %(default)s)")
+    ev.add_argument("--unseen", action="store_true",
+                    help="the unseen-style protocol: models trained without three styles (elderly, exhausted, feminine), "
+                         "neutral content to those styles and, from the same models, to the others")
+    ev.add_argument("--unseen-models", type=Path, metavar="DIR",
+                    help="--unseen: the folder with the held-out denoiser.safetensors and motion_encoder.safetensors "
+                         "(default: the development weights in evaluation/weights/unseen)")
+    ev.add_argument("--style-words", metavar="WORDS",
+                    help="learn every style under these words instead of its name (e.g. qwxz: a name that means "
+                         "nothing to the encoders)")
     ev.set_defaults(func=cmd_evaluate)
     return p
 

@@ -66,8 +66,9 @@ class OnTheFly:
     """
 
     def __init__(self, models, content_data, config, seed: int = 0, progress=None, strength: float | None = None,
-                 shared: dict | None = None, store: Path | None = None):
+                 shared: dict | None = None, store: Path | None = None, words: str | None = None):
         self.m, self.data, self.config, self.seed, self.strength = models, content_data, config, seed, strength
+        self.words = words  # the style words learning is given (None: the style's name)
         self.store = store  # a folder keeping learned styles between runs (keyed by example and learning config)
         self.shared = shared if shared is not None else {}
         self.learn_seconds: list[float] = []
@@ -80,7 +81,8 @@ class OnTheFly:
         from transfer.style import Style, learn_style, style_model
 
         learn_config = {k: v for k, v in asdict(self.config).items() if k not in APPLY_FIELDS + ("max_seconds",)}
-        key = "style" + _key(style, style_label, learn_config)
+        words = self.words or style_label
+        key = "style" + _key(style, words, learn_config, str(getattr(self.m, "prior_path", "")))
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
         if key not in self.shared and stored is not None and stored.is_file():
             learned = Style.load(stored)
@@ -89,7 +91,7 @@ class OnTheFly:
             t0 = time.time()
             content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
             learned, _ = learn_style(self.m.prior, self.m.motion_encoder, self.m.text_encoder, self.data, style,
-                                     style_label, content, self.config)
+                                     words, content, self.config)
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
@@ -126,9 +128,13 @@ class OnTheFly:
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, stgcn_weights: Path | None = None,
                   strengths: list[float] | None = None, iterations: int | None = None,
-                  style_cache: Path | None = None) -> tuple[dict, dict]:
+                  style_cache: Path | None = None, models_dir: Path | None = None, exclude_styles: tuple[str, ...] = (),
+                  words: str | None = None) -> tuple[dict, dict]:
     """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
-    the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting)."""
+    the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting).
+    ``models_dir``: the prior and motion encoder from this folder instead of the shipped ones, with the content
+    clips for learning drawn without ``exclude_styles`` (the unseen-style protocol); ``words``: the style words
+    every style is learned under (default: its name)."""
     from evaluation.protocol import identity_transfer
     from transfer.dataset import MotionDataset
     from transfer.style import StyleConfig
@@ -149,28 +155,55 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
             method = park_method(load_stylizer(stgcn_weights), seed)
             methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std, from_positions=True)
         else:
-            from video2style.pipeline import load_models
+            from video2style.pipeline import (
+                ENCODER_FILE,
+                PRIOR_FILE,
+                load_models,
+                load_models_from,
+            )
 
-            m = load_models()
-            train = train or MotionDataset(data_dir, "train")
+            m = load_models() if models_dir is None else load_models_from(Path(models_dir) / PRIOR_FILE,
+                                                                          Path(models_dir) / ENCODER_FILE)
+            train = train or MotionDataset(data_dir, "train", exclude_styles=exclude_styles)
             config = replace(StyleConfig(), seed=seed, **VARIANTS[name])
             if iterations is not None:
                 config = replace(config, iterations=iterations)
             for strength in strengths or [None]:
                 row = name if strength is None else f"{name} @{strength:g}"
                 learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
-                                   strength=strength, shared=shared, store=style_cache)
+                                   strength=strength, shared=shared, store=style_cache, words=words)
                 learners[row] = learner
                 methods[row] = cleaned(learner, test.mean, test.std)
     return methods, learners
 
 
+def unseen_models_dir() -> Path:
+    """The development weights of the unseen-style protocol: a prior and motion encoder trained with the shipped
+    recipe but without the held-out styles (:data:`evaluation.protocol.HELD_OUT_STYLES`); not in the wheel."""
+    import evaluation
+
+    return Path(evaluation.__file__).parent / "weights" / "unseen"
+
+
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
              examples_pool: int | None = None, progress=print, stgcn_weights: Path | None = None,
              split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
-             style_cache: Path | None = None) -> Iterator[str]:
-    """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines."""
-    from evaluation.protocol import format_table, run_protocol
+             style_cache: Path | None = None, unseen: bool = False, unseen_models: Path | None = None,
+             words: str | None = None) -> Iterator[str]:
+    """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines.
+
+    ``unseen``: the unseen-style protocol: our methods use the models in ``unseen_models`` (default
+    :func:`unseen_models_dir`), trained without the held-out styles; neutral content clips of every content
+    go to the held-out styles (rows marked "[held-out]") and, from the same models, to the other styles
+    ("[seen]"). ``words``: learn every style under these words instead of its name.
+    """
+    from evaluation.protocol import (
+        HELD_OUT_STYLES,
+        UNSEEN_FULL,
+        format_table,
+        run_protocol,
+    )
+    from transfer.captions import NEUTRAL_STYLE, STYLES
     from transfer.style import StyleConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():
@@ -181,10 +214,33 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
-    fns, learners = build_methods(names, data_dir, seed, progress, stgcn_weights, strengths, iterations, style_cache)
-    rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split)
+    models_dir, excluded = None, ()
+    if unseen:
+        models_dir, excluded = Path(unseen_models or unseen_models_dir()), HELD_OUT_STYLES
+        if any(n.startswith("ours") for n in names):
+            from video2style.pipeline import ENCODER_FILE, PRIOR_FILE
+
+            for f in (PRIOR_FILE, ENCODER_FILE):
+                if not (models_dir / f).is_file():
+                    raise FileNotFoundError(f"{models_dir / f}: no held-out model (train it with train-prior / "
+                                            f"train-encoder --exclude-styles {' '.join(HELD_OUT_STYLES)})")
+    fns, learners = build_methods(names, data_dir, seed, progress, stgcn_weights, strengths, iterations, style_cache,
+                                  models_dir, excluded, words)
+    if unseen:
+        per_content = None if quick else UNSEEN_FULL["per_content"] // (2 if split == "val" else 1)
+        groups = {"held-out": HELD_OUT_STYLES,
+                  "seen": tuple(s for s in STYLES if s not in HELD_OUT_STYLES and s != NEUTRAL_STYLE)}
+        rows = []
+        for group, targets in groups.items():
+            part = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split,
+                                per_content=per_content, sources=(NEUTRAL_STYLE,), targets=targets)
+            for r in part[1:]:
+                r.update(group=group, base_method=r["method"], method=f"{r['method']} [{group}]")
+            rows += part if not rows else part[1:]
+    else:
+        rows = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split)
     for row in rows:
-        learner = learners.get(row["method"])
+        learner = learners.get(row.get("base_method", row["method"]))
         if learner is not None and learner.learn_seconds:
             row["styles_learned"] = len(learner.learn_seconds)
             row["learn_seconds_mean"] = sum(learner.learn_seconds) / len(learner.learn_seconds)
@@ -195,7 +251,13 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     out_dir.mkdir(parents=True, exist_ok=True)
     learned = [f"- {r['method']}: {r['styles_learned']} styles, {r['learn_seconds_mean']:.0f} s each to learn "
                f"(at least {r['iterations_min']} iterations)" for r in rows if "styles_learned" in r]
-    header = (f"protocol: {'quick' if quick else 'full'} on the {split} split, seed {seed}, style examples from "
+    kind = "quick" if quick else "full"
+    if unseen:
+        kind += (f" unseen-style (models of {models_dir}, trained without {', '.join(HELD_OUT_STYLES)}; neutral content"
+                 + (f"; styles learned as {words!r}" if words else "") + ")")
+    elif words:
+        kind += f" (styles learned as {words!r})"
+    header = (f"protocol: {kind} on the {split} split, seed {seed}, style examples from "
               f"{examples_pool or 'all'} clip(s) per style, {iterations or StyleConfig.iterations} learning iterations "
               f"per example; {time.time() - t0:.0f} s in all")
     atomic_write_text(out_dir / "table.md", "\n".join([header, "", table, "", *learned]) + "\n")
@@ -220,7 +282,10 @@ def plot_tradeoff(rows: list[dict], path: Path, title: str = "") -> Path:
     for r in rows:
         if r["method"].startswith("real"):
             continue
-        base, _, s = r["method"].partition(" @")
+        name, group = r.get("base_method", r["method"]), r.get("group")
+        base, _, s = name.partition(" @")
+        if group:
+            base = f"{base} [{group}]"
         if s:
             curves.setdefault(base, []).append((float(s), 100 * r["sra"], 100 * r["cra"]))
         else:

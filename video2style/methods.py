@@ -25,5 +25,19 @@ VARIANTS = {
     "ours-diff-ls1": {"apply_mode": "difference", "lambda_s": 1.0},
     "ours-diff-s3": {"apply_mode": "difference", "delta_smoothing": 3.0},
     "ours-diff-s6": {"apply_mode": "difference", "delta_smoothing": 6.0},
+    # style signals that need no style words (the unseen-style protocol's ablation)
+    "ours-stat1": {"lambda_stat": 1.0},
+    "ours-stat1m": {"lambda_stat": 1.0, "stat_std": False},
+    "ours-stat1n": {"lambda_stat": 1.0, "stat_reference": "neutral"},
+    "ours-stat1nm": {"lambda_stat": 1.0, "stat_reference": "neutral", "stat_std": False},
+    "ours-stat3n": {"lambda_stat": 3.0, "stat_reference": "neutral"},
+    "ours-dir1": {"lambda_dir": 1.0},
+    "ours-dir1-ls0": {"lambda_dir": 1.0, "lambda_s": 0.0},
+    "ours-dir3-ls0": {"lambda_dir": 3.0, "lambda_s": 0.0},
+    "ours-dir03-ls0": {"lambda_dir": 0.3, "lambda_s": 0.0},
+    "ours-stat03n": {"lambda_stat": 0.3, "stat_reference": "neutral"},
+    "ours-dir1-stat03n-ls0": {"lambda_dir": 1.0, "lambda_stat": 0.3, "stat_reference": "neutral", "lambda_s": 0.0},
+    "ours-it150": {"iterations": 150},
+    "ours-pp0": {"lambda_p": 0.0},
 }
 METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)

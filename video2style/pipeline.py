@@ -33,6 +33,7 @@ class Models:
 
 
 PRIOR_FILE = "denoiser.safetensors"
+ENCODER_FILE = "motion_encoder.safetensors"
 
 
 def load_models(device: str | torch.device = "cpu") -> Models:
@@ -46,14 +47,23 @@ def load_models(device: str | torch.device = "cpu") -> Models:
 
 @lru_cache(maxsize=2)
 def _models_on(device: str) -> Models:
+    return load_models_from(weights_path(PRIOR_FILE), weights_path(ENCODER_FILE), device)
+
+
+def load_models_from(prior_path: Path, encoder_path: Path, device: str | torch.device = "cpu") -> Models:
+    """A prior and motion encoder from given files (e.g. the unseen-style protocol's development weights)."""
+    from transfer.device import resolve_device
     from transfer.motion_encoder import load_motion_encoder
     from transfer.prior import load_prior
     from transfer.text_encoder import default_text_encoder
 
-    prior_path = weights_path(PRIOR_FILE)
+    for path in (prior_path, encoder_path):
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"{path}: no such weights file")
+    device = resolve_device(device)
     prior, mean, std = load_prior(prior_path)
-    encoder = load_motion_encoder(weights_path("motion_encoder.safetensors"))
-    return Models(prior.to(device), mean, std, encoder.to(device), default_text_encoder(), prior_path)
+    encoder = load_motion_encoder(encoder_path)
+    return Models(prior.to(device), mean, std, encoder.to(device), default_text_encoder(), Path(prior_path))
 
 
 def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5,

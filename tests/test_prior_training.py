@@ -1,0 +1,80 @@
+"""The prior's training recipe: styles left out, a validation loss, resumed runs keeping their own settings."""
+from __future__ import annotations
+
+import pytest
+import torch
+
+from tests.synthetic_cache import write_synthetic_cache
+from transfer.dataset import MotionDataset
+from transfer.prior import (
+    PriorTrainConfig,
+    convergence,
+    load_prior,
+    read_val_log,
+    train_prior,
+)
+
+TINY = {"width": 32, "layers": 1, "heads": 2, "ff": 64, "batch_size": 4, "window": 24, "warmup": 2, "val_every": 2,
+        "val_windows": 6}
+
+
+def _cache(tmp_path):
+    return write_synthetic_cache(tmp_path / "cache", styles=("normal", "elderly", "feminine"))
+
+
+def test_excluded_styles_leave_no_clip_and_bad_names_are_refused(tmp_path):
+    cache = _cache(tmp_path)
+    full = MotionDataset(cache, "train")
+    kept = MotionDataset(cache, "train", exclude_styles=("elderly",))
+    assert {r.style for r in full.records} == {"normal", "elderly", "feminine"}
+    assert {r.style for r in kept.records} == {"normal", "feminine"}
+    assert not any("elderly" in r.caption for r in kept.records)
+    assert torch.equal(kept.mean, full.mean)  # the normaliser stays the cache's
+    with pytest.raises(ValueError, match="expected styles among"):
+        MotionDataset(cache, "train", exclude_styles=("grumpy",))
+    with pytest.raises(ValueError, match="neutral style 'normal' cannot be excluded"):
+        MotionDataset(cache, "train", exclude_styles=("normal",))
+
+
+def test_tiny_run_logs_a_fixed_validation_loss_and_resumes_with_its_own_settings(tmp_path):
+    cache, out = _cache(tmp_path), tmp_path / "run"
+    explicit = {**TINY, "exclude_styles": ("elderly",)}
+    train_prior(cache, out, PriorTrainConfig(**explicit), max_minutes=5, max_steps=4, explicit=explicit, progress=False)
+    log = read_val_log(out / "val.csv")
+    assert [s for s, _ in log] == [2, 4]
+    assert all(v > 0 for _, v in log)
+    # Resumed with no settings given: the checkpoint's own (width 32, elderly left out), not the defaults.
+    trainer = train_prior(cache, out, PriorTrainConfig(), max_minutes=5, max_steps=6, explicit={}, progress=False)
+    assert trainer.step == 6
+    assert trainer.config.width == 32 and tuple(trainer.config.exclude_styles) == ("elderly",)
+    assert [s for s, _ in read_val_log(out / "val.csv")] == [2, 4, 6]
+    model, _, _ = load_prior(out / "denoiser.safetensors")
+    assert model.config.width == 32
+    card = (out / "denoiser.json").read_text()
+    assert "elderly left out" in card and "validation_loss" in card
+    with pytest.raises(ValueError, match="cannot resume with different settings.*exclude_styles"):
+        other = {"exclude_styles": ("feminine",)}
+        train_prior(cache, out, PriorTrainConfig(**{**TINY, **other}), max_minutes=5, max_steps=8, explicit=other,
+                    progress=False)
+
+
+def test_validation_loss_is_the_same_for_the_same_model(tmp_path):
+    from transfer.denoiser import Denoiser, DenoiserConfig
+    from transfer.prior import ValidationLoss
+    from transfer.scheduler import DiffusionScheduler
+
+    data = MotionDataset(_cache(tmp_path), "val")
+    text = torch.randn(len(data), 384)
+    torch.manual_seed(0)
+    model = Denoiser(DenoiserConfig(width=32, layers=1, heads=2, ff=64)).train()
+    make = lambda: ValidationLoss(data, text, DiffusionScheduler(1000), 8, 24, 1.0)
+    first, second = make()(model), make()(model)
+    assert first == second and model.training  # fixed windows, noise and steps; no dropout; mode restored
+
+
+def test_convergence_is_the_fall_over_the_last_fifth():
+    log = [(100 * i, v) for i, v in enumerate([1.0, 0.5, 0.4, 0.3, 0.25, 0.2, 0.18, 0.17, 0.165, 0.16, 0.158])]
+    # last step 1000, a fifth back is step 800 (0.165): (0.165 - 0.158) / 0.165
+    assert convergence(log) == pytest.approx((0.165 - 0.158) / 0.165)
+    assert convergence(log[:2]) is None
+    assert read_val_log("/nonexistent/val.csv") == []
