@@ -78,3 +78,15 @@ def test_adapters_that_do_not_fit_the_model_are_one_line(tmp_path, good):
     with pytest.raises(ValueError, match=f"adapter tensor {name}: expected shape") as e:
         style_model(tiny_denoiser(), style)
     assert "\n" not in str(e.value)
+
+
+def test_every_config_field_has_a_checked_range_and_the_defaults_pass():
+    from dataclasses import asdict, fields
+
+    from transfer.style_config import StyleConfig
+    from transfer.style_schema import CONFIG_RANGES, validate_config
+
+    assert {f.name for f in fields(StyleConfig)} == set(CONFIG_RANGES)
+    assert validate_config(asdict(StyleConfig())) == asdict(StyleConfig())
+    with pytest.raises(ValueError, match="config.decode: expected one of rotations, positions"):
+        validate_config({"decode": "quaternions"})

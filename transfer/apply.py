@@ -155,6 +155,19 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
+def decoder(config: StyleConfig):
+    """How a stylised result's features become a motion (``config.decode``): from the rotation channels
+    (:func:`motioncore.representation.decode`) or fitted to the position channels
+    (:func:`motioncore.ik_fit.decode_via_positions`); same signature."""
+    if config.decode == "rotations":
+        return decode
+    if config.decode == "positions":
+        from motioncore.ik_fit import decode_via_positions
+
+        return decode_via_positions
+    raise ValueError(f"decode: expected 'rotations' or 'positions', got {config.decode!r}")
+
+
 def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, config: StyleConfig,
                        step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True) -> Motion:
     """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
@@ -162,5 +175,6 @@ def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: t
     feats = encode(content)
     out = apply_style_features(model, prior, (feats - mean) / std, config, step, seed, neutral_text) * std + mean
     p0 = content.global_positions()[:1].double()
-    result = decode(out, content.fps, start_yaw=float(facing_angle(p0)[0]), start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
+    result = decoder(config)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
+                             start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
     return cleanup_feet(result, reference=content) if clean else result

@@ -36,4 +36,6 @@ class StyleConfig:
     stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
     stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
     # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
+    decode: str = "rotations"  # apply: the result's rotations from its rotation channels, or "positions": fitted
+    # to its joint-position channels (a style's difference is linear there; in 6D rotations a large one swings a limb)
     lambda_dir: float = 0.0  # word-free: the change in the motion encoder's space points as example - pair does

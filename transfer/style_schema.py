@@ -29,6 +29,8 @@ CONFIG_RANGES = {
     "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
     "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
     "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
+    "lambda_stat": (float, 0.0, 100.0), "stat_std": (bool, None, None), "stat_reference": (str, ("pair", "neutral"), None),
+    "decode": (str, ("rotations", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
 }
 
 

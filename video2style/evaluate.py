@@ -35,7 +35,8 @@ from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
 from video2style.methods import METHODS, VARIANTS
 
-APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing")  # not used in learning
+APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing",
+                "decode")  # not used in learning
 HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
@@ -173,7 +174,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
                 learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
                                    strength=strength, shared=shared, store=style_cache, words=words)
                 learners[row] = learner
-                methods[row] = cleaned(learner, test.mean, test.std)
+                methods[row] = cleaned(learner, test.mean, test.std, from_positions=config.decode == "positions")
     return methods, learners
 
 
