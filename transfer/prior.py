@@ -57,9 +57,15 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
     t = torch.randint(scheduler.num_train_steps, (b,), generator=generator).to(device)
     x_t = scheduler.add_noise(x0, torch.randn(x0.shape, generator=generator).to(device), t)
     pred = model(x_t, t, text, valid, drop=drop)
+    rec, vel = x0_losses(pred, x0, valid)
+    return rec + velocity_weight * vel, {"rec": rec.item(), "vel": vel.item()}
+
+
+def x0_losses(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The prior's two loss terms on ``(B, T, D)`` over ``valid (B, T)``: x0 MSE and frame-difference MSE."""
     rec = masked_mse(pred, x0, valid)
     vel = masked_mse(pred[:, 1:] - pred[:, :-1], x0[:, 1:] - x0[:, :-1], valid[:, 1:] & valid[:, :-1])
-    return rec + velocity_weight * vel, {"rec": rec.item(), "vel": vel.item()}
+    return rec, vel
 
 
 class ValidationLoss:
@@ -85,9 +91,7 @@ class ValidationLoss:
             sl = slice(s, s + self.batch)
             x0, valid, t = self.x0[sl].to(device), self.valid[sl].to(device), self.t[sl].to(device)
             x_t = self.scheduler.add_noise(x0, self.noise[sl].to(device), t)
-            pred = model(x_t, t, self.text[sl].to(device), valid)
-            rec = masked_mse(pred, x0, valid)
-            vel = masked_mse(pred[:, 1:] - pred[:, :-1], x0[:, 1:] - x0[:, :-1], valid[:, 1:] & valid[:, :-1])
+            rec, vel = x0_losses(model(x_t, t, self.text[sl].to(device), valid), x0, valid)
             total += float(rec + self.velocity_weight * vel) * len(t)
             count += len(t)
         model.train(training)
