@@ -138,7 +138,7 @@ def test_variants_that_learn_alike_share_their_styles(toys):
 def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
     prior, encoder, text, cache = toys
     data = MotionDataset(cache, "train")
-    plain, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config())
+    plain, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_dir=0.0))
     other, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(**kw))
     assert all(torch.isfinite(v).all() for v in other.adapters.values())
     assert any(not torch.equal(plain.adapters[k], other.adapters[k]) for k in plain.adapters)
@@ -151,5 +151,10 @@ def test_words_matter_only_through_the_semantic_loss(toys):
     a, _ = learn_style(prior, encoder, text, data, data.clip(1), "proud", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
     b, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
     assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
+    c, _ = learn_style(prior, encoder, text, data, data.clip(1), "proud", "walk", _config())  # the defaults: word-free
+    d, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config())
+    assert all(torch.equal(c.adapters[k], d.adapters[k]) for k in c.adapters)
+    e, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.1))
+    assert any(not torch.equal(d.adapters[k], e.adapters[k]) for k in d.adapters)  # L_s on: the words enter
     with pytest.raises(ValueError, match="expected stat_reference"):
         learn_style(prior, encoder, text, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))

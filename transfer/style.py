@@ -218,9 +218,11 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     neutral = [i for i, r in enumerate(dataset.records) if r.style == "normal"]
     if not neutral:
         raise ValueError("learn_style: the dataset has no neutral ('normal') clips for the semantic loss")
-    target_captions = sorted({dataset.records[i].caption for i in neutral})
-    styled = {c: f"{c}, {style_words} style" for c in target_captions}
-    target_emb = dict(zip(target_captions, text_encoder.encode([styled[c] for c in target_captions]).to(device)))
+    target_emb = {}
+    if config.lambda_s > 0:  # the words' text target; with lambda_s 0 the words never enter learning
+        target_captions = sorted({dataset.records[i].caption for i in neutral})
+        styled = [f"{c}, {style_words} style" for c in target_captions]
+        target_emb = dict(zip(target_captions, text_encoder.encode(styled).to(device)))
     shift = None
     if config.lambda_stat > 0:
         same = [i for i in neutral if dataset.records[i].caption == neutral_text] if config.stat_reference == "neutral" else []
@@ -250,10 +252,14 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
             t = steps[int(torch.randint(len(steps), (1,), generator=gen))]
             y_c = noise_keeping(scheduler, xs, torch.randn(xs.shape, generator=gen).to(device), t, TRAJECTORY)
             x0_c = overwrite(model(y_c, torch.full((len(idx),), t, device=device), None, valid), xs, TRAJECTORY)
-            z = motion_encoder(x0_c * valid[..., None], valid)
-            target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
-            loss_s = (1 - (z * target).sum(-1)).mean()
-        loss = loss_rec + config.lambda_s * loss_s
+            loss = loss_rec
+            loss_s = torch.zeros(())
+            if config.lambda_s > 0 or config.lambda_dir > 0:
+                z = motion_encoder(x0_c * valid[..., None], valid)
+            if config.lambda_s > 0:
+                target = torch.stack([target_emb[dataset.records[i].caption] for i in idx])
+                loss_s = (1 - (z * target).sum(-1)).mean()
+                loss = loss + config.lambda_s * loss_s
         if config.lambda_p > 0 or shift is not None or config.lambda_dir > 0:
             with record_function("learn: the prior on content"), torch.no_grad():
                 x0_p = overwrite(prior(y_c, torch.full((len(idx),), t, device=device), None, valid), xs, TRAJECTORY)

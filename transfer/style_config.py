@@ -18,7 +18,8 @@ class StyleConfig:
     lr: float = 2e-3
     iterations: int = 40  # the budget (chosen on the val split, docs/RESULTS.md): same example + seed = same style
     max_seconds: float | None = None  # optional wall-clock cap on the whole learning; None = no cap
-    lambda_s: float = 0.1
+    lambda_s: float = 0.0  # L_s, the style words' text target (Hu et al. eq. 11): 0 by default, since for a style the
+    # encoders never saw the words carry no motion meaning (docs/RESULTS.md, "Styles the models never saw")
     content_batch: int = 8
     window: int = 80
     seed: int = 0
@@ -26,7 +27,8 @@ class StyleConfig:
     lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
     apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
     # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
-    style_scale: float = 1.0  # difference mode: the scale of the style's difference; regenerate: guidance weight
+    style_scale: float = 0.9  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
+    # unseen-style val split); regenerate: guidance weight
     neutralize_step: int = 950  # apply: a styled content clip is noised this far and redrawn neutral first
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
     # of multiplying its final difference
@@ -38,4 +40,4 @@ class StyleConfig:
     # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
     decode: str = "rotations"  # apply: the result's rotations from its rotation channels, or "positions": fitted
     # to its joint-position channels (a style's difference is linear there; in 6D rotations a large one swings a limb)
-    lambda_dir: float = 0.0  # word-free: the change in the motion encoder's space points as example - pair does
+    lambda_dir: float = 1.0  # word-free: the change in the motion encoder's space points as example - pair does

@@ -4,12 +4,15 @@ Plain data, so the command line can list them without importing torch."""
 
 VARIANTS = {
     "ours": {},
+    # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
+    # rows dated before 2026-12-02 14:00 in docs/RESULTS.md ran every variant below on top of these
+    "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0},
     "ours-no-ls": {"lambda_s": 0.0},
     "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
     "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
     "ours-k600": {"transfer_step": 600, "transfer_steps": 12},
-    "ours-regen": {"apply_mode": "regenerate"},
+    "ours-regen": {"apply_mode": "regenerate", "style_scale": 1.0},
     "ours-diff": {"apply_mode": "difference"},
     "ours-diff-k600": {"apply_mode": "difference", "transfer_step": 600, "transfer_steps": 12},
     "ours-diff-no-pp": {"apply_mode": "difference", "lambda_p": 0.0},
@@ -44,5 +47,9 @@ VARIANTS = {
     "ours-dir1-stat03n-ls0": {"lambda_dir": 1.0, "lambda_stat": 0.3, "stat_reference": "neutral", "lambda_s": 0.0},
     "ours-it150": {"iterations": 150},
     "ours-pp0": {"lambda_p": 0.0},
+    "ours-dir2-ls0": {"lambda_dir": 2.0, "lambda_s": 0.0},
+    "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
+    "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
+    "ours-dir1-ls0-s3": {"lambda_dir": 1.0, "lambda_s": 0.0, "delta_smoothing": 3.0},
 }
 METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
