@@ -23,6 +23,8 @@ def main() -> None:
     ap.add_argument("--content", nargs="+", type=Path, required=True, help="content BVH clips")
     ap.add_argument("--strength", type=float, default=0.5)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--decode", choices=["rotations", "guarded", "positions"],
+                    help="apply with this decoding instead of the style's own (StyleConfig.decode)")
     args = ap.parse_args()
 
     import torch
@@ -45,6 +47,8 @@ def main() -> None:
     worst_all = []
     for sp in styles:
         style = Style.load(sp)
+        if args.decode:
+            style.meta["config"]["decode"] = args.decode
         model = style_model(m.prior, style)
         example = style.example.float()
         for clip in clips:

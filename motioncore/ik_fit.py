@@ -30,7 +30,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import torch
 
 from motioncore import quat
-from motioncore.kinematics import to_local
+from motioncore.kinematics import fk, to_local
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
 
@@ -227,3 +227,49 @@ def decode_via_positions(feats: torch.Tensor, fps: float, start_yaw: float = 0.0
     pos[..., 0] += start_xz[0]
     pos[..., 2] += start_xz[1]
     return fit_positions(pos.float(), fps, spec)
+
+
+def limb_chains(sk: Skeleton) -> dict[str, list[int]]:
+    """Each leaf joint below a branching joint (the hands and toes of the canonical skeleton) -> the joints
+    whose rotations place it, from below the nearest branching ancestor down to its parent: e.g. Hand_L ->
+    [Shoulder_L, UpperArm_L, LowerArm_L]. From the skeleton's topology, no joint names."""
+    chains = {}
+    for j in range(sk.num_joints):
+        if sk.children(j) or sk.parents[j] < 0:
+            continue
+        chain, p = [], sk.parents[j]
+        while p >= 0 and len(sk.children(p)) == 1:
+            chain.insert(0, p)
+            p = sk.parents[p]
+        if chain and p >= 0:
+            chains[sk.names[j]] = chain
+    return chains
+
+
+def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, start_xz: tuple[float, float] = (0.0, 0.0),
+                   spec: CanonicalSpec = CANONICAL, agree: float = 0.05, disagree: float = 0.15) -> Motion:
+    """Features ``(T, D)`` -> :class:`Motion` from the rotation channels, except where they disagree with the
+    position channels about where a limb is: per frame and limb (:func:`limb_chains`), the distance between
+    the limb's end joint under the two decodings (root-relative) blends the chain's local rotations from the
+    rotation decode (under ``agree`` metres) to the position fit (:func:`decode_via_positions`, above
+    ``disagree``). On motions whose two channel sets agree (real data) it is the rotation decode."""
+    from motioncore.representation import decode
+
+    by_rot = decode(feats, fps, spec, start_yaw, start_xz)
+    by_pos = decode_via_positions(feats, fps, start_yaw, start_xz, spec)
+    sk = spec.skeleton
+    grot_r, gpos_r = fk(by_rot.lrot, by_rot.lpos, sk.parents)
+    grot_p, gpos_p = fk(by_pos.lrot, by_pos.lpos, sk.parents)
+    rel_r, rel_p = gpos_r - gpos_r[:, :1], gpos_p - gpos_p[:, :1]
+    lrot = by_rot.lrot.clone()
+    for end, chain in limb_chains(sk).items():
+        e = sk.index(end)
+        w = _smoothstep((rel_r[:, e] - rel_p[:, e]).norm(dim=-1), agree, disagree)  # (T,)
+        if not bool((w > 0).any()):
+            continue
+        parent_g = grot_r[:, sk.parents[chain[0]]]  # the branching joint, as the rotation decode has it
+        for j in chain:  # blend in global space, so the parent's twist in either decoding does not turn the limb
+            g = quat.slerp(grot_r[:, j], grot_p[:, j], w)
+            lrot[:, j] = quat.mul(quat.inv(parent_g), g)
+            parent_g = g
+    return Motion(sk, quat.normalize(lrot), by_rot.lpos, fps)

@@ -88,5 +88,5 @@ def test_every_config_field_has_a_checked_range_and_the_defaults_pass():
 
     assert {f.name for f in fields(StyleConfig)} == set(CONFIG_RANGES)
     assert validate_config(asdict(StyleConfig())) == asdict(StyleConfig())
-    with pytest.raises(ValueError, match="config.decode: expected one of rotations, positions"):
+    with pytest.raises(ValueError, match="config.decode: expected one of rotations, guarded, positions"):
         validate_config({"decode": "quaternions"})

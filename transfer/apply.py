@@ -157,15 +157,20 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
 
 def decoder(config: StyleConfig):
     """How a stylised result's features become a motion (``config.decode``): from the rotation channels
-    (:func:`motioncore.representation.decode`) or fitted to the position channels
-    (:func:`motioncore.ik_fit.decode_via_positions`); same signature."""
+    (:func:`motioncore.representation.decode`), fitted to the position channels
+    (:func:`motioncore.ik_fit.decode_via_positions`), or "guarded": the rotation channels except for a limb
+    where the two disagree (:func:`motioncore.ik_fit.decode_guarded`); same signature."""
     if config.decode == "rotations":
         return decode
+    if config.decode == "guarded":
+        from motioncore.ik_fit import decode_guarded
+
+        return decode_guarded
     if config.decode == "positions":
         from motioncore.ik_fit import decode_via_positions
 
         return decode_via_positions
-    raise ValueError(f"decode: expected 'rotations' or 'positions', got {config.decode!r}")
+    raise ValueError(f"decode: expected 'rotations', 'guarded' or 'positions', got {config.decode!r}")
 
 
 def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, config: StyleConfig,

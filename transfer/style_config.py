@@ -27,7 +27,7 @@ class StyleConfig:
     lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
     apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
     # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
-    style_scale: float = 0.9  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
+    style_scale: float = 0.95  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
     # unseen-style val split); regenerate: guidance weight
     neutralize_step: int = 950  # apply: a styled content clip is noised this far and redrawn neutral first
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
@@ -38,6 +38,7 @@ class StyleConfig:
     stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
     stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
     # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
-    decode: str = "rotations"  # apply: the result's rotations from its rotation channels, or "positions": fitted
-    # to its joint-position channels (a style's difference is linear there; in 6D rotations a large one swings a limb)
+    decode: str = "guarded"  # apply: the result's rotations from its rotation channels ("rotations"), fitted to its
+    # joint-position channels ("positions": a style's difference is linear there; in 6D rotations a large one swings
+    # a limb), or "guarded": rotations except for a limb whose two channel sets disagree (motioncore.ik_fit)
     lambda_dir: float = 1.0  # word-free: the change in the motion encoder's space points as example - pair does

@@ -30,7 +30,7 @@ CONFIG_RANGES = {
     "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
     "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
     "lambda_stat": (float, 0.0, 100.0), "stat_std": (bool, None, None), "stat_reference": (str, ("pair", "neutral"), None),
-    "decode": (str, ("rotations", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
+    "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
 }
 
 

@@ -6,7 +6,7 @@ VARIANTS = {
     "ours": {},
     # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
     # rows dated before 2026-12-02 14:00 in docs/RESULTS.md ran every variant below on top of these
-    "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0},
+    "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0, "decode": "rotations"},
     "ours-no-ls": {"lambda_s": 0.0},
     "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
@@ -47,6 +47,7 @@ VARIANTS = {
     "ours-dir1-stat03n-ls0": {"lambda_dir": 1.0, "lambda_stat": 0.3, "stat_reference": "neutral", "lambda_s": 0.0},
     "ours-it150": {"iterations": 150},
     "ours-pp0": {"lambda_p": 0.0},
+    "ours-rotations": {"decode": "rotations", "style_scale": 0.9},  # the word-free default before the guarded decode
     "ours-dir2-ls0": {"lambda_dir": 2.0, "lambda_s": 0.0},
     "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
     "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
