@@ -40,6 +40,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", type=Path, help="keep inputs and outputs here (default: a temporary folder)")
     ap.add_argument("--repeats", type=int, default=3, help="apply timings: best of this many")
+    ap.add_argument("--device", default="cpu", help="where the models run: cpu, cuda or auto (default: %(default)s)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
@@ -51,11 +52,11 @@ def main() -> None:
         work.mkdir(parents=True, exist_ok=True)
         video, bvh = make_inputs(work, args.seconds)
         t0 = time.perf_counter()
-        load_models()
-        print(f"loading models: {time.perf_counter() - t0:.1f} s (once per process, not counted below)")
+        load_models(args.device)
+        print(f"device {args.device}; loading models: {time.perf_counter() - t0:.1f} s (once per process, not counted below)")
 
         t0 = time.perf_counter()
-        summary = learn_file(video, work / "elderly.v2s", "elderly", progress=lambda s: None)
+        summary = learn_file(video, work / "elderly.v2s", "elderly", progress=lambda s: None, device=args.device)
         learn_s = time.perf_counter() - t0
         size = (work / "elderly.v2s").stat().st_size
         print(f"learn ({args.seconds:g} s 720p video, pose included): {learn_s:.1f} s "
@@ -63,7 +64,7 @@ def main() -> None:
         print(f"style file: {size / 1024:.0f} KiB  target <= 1024 KiB")
 
         style = Style.load(work / "elderly.v2s")
-        model = style_model(load_models().prior, style)
+        model = style_model(load_models(args.device).prior, style)
         for label, kw in [("apply, no preview", {"preview": False, "neutralize": "never"}),
                           ("apply, content recognised first (auto)", {"preview": False, "neutralize": "auto"}),
                           ("apply, neutralised first (styled content)", {"preview": False, "neutralize": "always"}),

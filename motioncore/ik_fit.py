@@ -247,12 +247,16 @@ def limb_chains(sk: Skeleton) -> dict[str, list[int]]:
 
 
 def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, start_xz: tuple[float, float] = (0.0, 0.0),
-                   spec: CanonicalSpec = CANONICAL, agree: float = 0.05, disagree: float = 0.15) -> Motion:
+                   spec: CanonicalSpec = CANONICAL, reference: Motion | None = None, agree: float = 0.05,
+                   disagree: float = 0.15) -> Motion:
     """Features ``(T, D)`` -> :class:`Motion` from the rotation channels, except where they disagree with the
-    position channels about where a limb is: per frame and limb (:func:`limb_chains`), the distance between
-    the limb's end joint under the two decodings (root-relative) blends the chain's local rotations from the
+    position channels about where a limb is. Per frame and limb (:func:`limb_chains`), the distance between the
+    limb's end joint under the two decodings (hips-relative) blends the chain's global rotations from the
     rotation decode (under ``agree`` metres) to the position fit (:func:`decode_via_positions`, above
-    ``disagree``). On motions whose two channel sets agree (real data) it is the rotation decode."""
+    ``disagree``) — when ``reference`` (the motion the features were made from, e.g. the content of a style
+    transfer) is given, only where the position fit moves the limb less far from the reference's than the
+    rotations do: of two readings that disagree, the smaller change. On motions whose two channel sets agree
+    (real data) it is the rotation decode."""
     from motioncore.representation import decode
 
     by_rot = decode(feats, fps, spec, start_yaw, start_xz)
@@ -261,11 +265,22 @@ def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, star
     grot_r, gpos_r = fk(by_rot.lrot, by_rot.lpos, sk.parents)
     grot_p, gpos_p = fk(by_pos.lrot, by_pos.lpos, sk.parents)
     rel_r, rel_p = gpos_r - gpos_r[:, :1], gpos_p - gpos_p[:, :1]
+    rel_ref = None
+    if reference is not None:
+        if reference.num_frames != by_rot.num_frames:
+            raise ValueError(f"decode_guarded: expected a reference of {by_rot.num_frames} frames, "
+                             f"got {reference.num_frames}")
+        g_ref = reference.global_positions()
+        rel_ref = g_ref - g_ref[:, :1]
     lrot = by_rot.lrot.clone()
     for end, chain in limb_chains(sk).items():
         e = sk.index(end)
         w = _smoothstep((rel_r[:, e] - rel_p[:, e]).norm(dim=-1), agree, disagree)  # (T,)
-        if not bool((w > 0).any()):
+        if rel_ref is not None:  # the position fit only where it is the smaller change (2 cm soft margin)
+            moved_r = (rel_r[:, e] - rel_ref[:, e]).norm(dim=-1)
+            moved_p = (rel_p[:, e] - rel_ref[:, e]).norm(dim=-1)
+            w = w * torch.sigmoid((moved_r - moved_p) / 0.02)
+        if not bool((w > 1e-3).any()):
             continue
         parent_g = grot_r[:, sk.parents[chain[0]]]  # the branching joint, as the rotation decode has it
         for j in chain:  # blend in global space, so the parent's twist in either decoding does not turn the limb

@@ -1,6 +1,8 @@
 """Applying a learned style to canonical content motions of any length."""
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 
 import torch
@@ -155,17 +157,19 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
-def decoder(config: StyleConfig):
+def decoder(config: StyleConfig, reference: Motion | None = None):
     """How a stylised result's features become a motion (``config.decode``): from the rotation channels
     (:func:`motioncore.representation.decode`), fitted to the position channels
     (:func:`motioncore.ik_fit.decode_via_positions`), or "guarded": the rotation channels except for a limb
-    where the two disagree (:func:`motioncore.ik_fit.decode_guarded`); same signature."""
+    where the two disagree and the position fit is the smaller change from ``reference`` (the content the
+    result was made from; :func:`motioncore.ik_fit.decode_guarded`). Each takes ``(feats, fps, start_yaw=,
+    start_xz=)``."""
     if config.decode == "rotations":
         return decode
     if config.decode == "guarded":
         from motioncore.ik_fit import decode_guarded
 
-        return decode_guarded
+        return functools.partial(decode_guarded, reference=reference)
     if config.decode == "positions":
         from motioncore.ik_fit import decode_via_positions
 
@@ -180,6 +184,6 @@ def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: t
     feats = encode(content)
     out = apply_style_features(model, prior, (feats - mean) / std, config, step, seed, neutral_text) * std + mean
     p0 = content.global_positions()[:1].double()
-    result = decoder(config)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
+    result = decoder(config, reference=content)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
                              start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
     return cleanup_feet(result, reference=content) if clean else result

@@ -512,7 +512,8 @@ def build_parser() -> argparse.ArgumentParser:
                                "a style learned in too few iterations is refused unless --allow-partial.",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...) or .bvh")
-    lr.add_argument("--style", help="style words, e.g. 'old' (default: from the file name)")
+    lr.add_argument("--style", help="a name for the style, e.g. 'old', kept in the style file; learning does not use it "
+                    "unless the style's config turns on lambda_s (default: from the file name)")
     lr.add_argument("--text", help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
     lr.add_argument("--iterations", type=_positive_int,
