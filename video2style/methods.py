@@ -48,6 +48,7 @@ VARIANTS = {
     "ours-it150": {"iterations": 150},
     "ours-pp0": {"lambda_p": 0.0},
     "ours-rotations": {"decode": "rotations", "style_scale": 0.9},  # the word-free default before the guarded decode
+    "ours-g600": {"pair_step": 600},  # the neutral pair drawn from step 600 instead of 950
     "ours-dir2-ls0": {"lambda_dir": 2.0, "lambda_s": 0.0},
     "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
     "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
