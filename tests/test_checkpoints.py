@@ -8,7 +8,7 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from transfer.checkpoints import RunCheckpoint
+from transfer.checkpoints import RunCheckpoint, optimizer_path
 from transfer.training import update_ema
 
 
@@ -36,9 +36,11 @@ def test_save_resume_round_trip_and_key_layout(tmp_path, named):
     ckpt.step, ckpt.elapsed = 7, 12.5
     ckpt.save()
     keys = set(load_file(str(ckpt.path)))
-    assert {"model.weight", "model.bias", "disc.weight", "disc.bias"} <= keys
+    assert keys == {"model.weight", "model.bias", "disc.weight", "disc.bias"}
+    assert optimizer_path(ckpt.path) == tmp_path / "checkpoint.optim.safetensors"
+    moment_keys = set(load_file(str(optimizer_path(ckpt.path))))
     prefix = "g.opt.a.weight." if named else "opt.a.weight."
-    assert {prefix + "exp_avg", prefix + "exp_avg_sq", prefix + "step"} <= keys
+    assert {prefix + "exp_avg", prefix + "exp_avg_sq", prefix + "step"} <= moment_keys
 
     a2, _, opts2, ckpt2 = _run(tmp_path, named)
     with torch.no_grad():
@@ -50,6 +52,45 @@ def test_save_resume_round_trip_and_key_layout(tmp_path, named):
             torch.testing.assert_close(o2.state[p2]["exp_avg"], o.state[p]["exp_avg"])
     with pytest.raises(ValueError, match="cannot resume with different settings.*width: checkpoint 4 vs given 8"):
         ckpt2.resume({"width": 8})
+
+
+def _trained(tmp_path):
+    a, b, opts, ckpt = _run(tmp_path, named=True)
+    (b(a(torch.randn(5, 3))) ** 2).sum().backward()
+    for opt in opts.values():
+        opt.step()
+    ckpt.step = 3
+    ckpt.save()
+    return a, opts, ckpt
+
+
+def test_a_one_file_checkpoint_of_older_versions_still_resumes(tmp_path):
+    from safetensors import safe_open
+    from safetensors.torch import save_file
+
+    a, opts, ckpt = _trained(tmp_path)
+    with safe_open(str(ckpt.path), framework="pt") as f:
+        meta = f.metadata()
+    merged = load_file(str(ckpt.path)) | load_file(str(optimizer_path(ckpt.path)))
+    save_file(merged, str(ckpt.path), metadata=meta)
+    optimizer_path(ckpt.path).unlink()
+    _, _, opts2, ckpt2 = _run(tmp_path, named=True)
+    assert ckpt2.resume({}) and ckpt2.step == 3
+    p, p2 = opts["g"].param_groups[0]["params"][0], opts2["g"].param_groups[0]["params"][0]
+    torch.testing.assert_close(opts2["g"].state[p2]["exp_avg"], opts["g"].state[p]["exp_avg"])
+
+
+def test_moments_of_another_step_or_none_are_refused(tmp_path):
+    from safetensors.torch import save_file
+
+    _, _, ckpt = _trained(tmp_path)
+    moments = load_file(str(optimizer_path(ckpt.path)))
+    save_file(moments, str(optimizer_path(ckpt.path)), metadata={"step": "2"})
+    with pytest.raises(ValueError, match="expected the moments of step 3, got step 2"):
+        _run(tmp_path, named=True)[3].resume({})
+    optimizer_path(ckpt.path).unlink()
+    with pytest.raises(ValueError, match="checkpoint.optim.safetensors: missing"):
+        _run(tmp_path, named=True)[3].resume({})
 
 
 def test_no_checkpoint_means_a_fresh_run(tmp_path):

@@ -79,12 +79,33 @@ def load_optimizer(opt: torch.optim.Optimizer, names: dict[int, str], tensors: d
                 opt.state[p] = {k: v if k == "step" else v.to(p.device) for k, v in state.items()}
 
 
+def optimizer_path(path: Path) -> Path:
+    """Where the optimizer moments of the run checkpoint at ``path`` live: ``<stem>.optim.safetensors``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.optim{path.suffix}")
+
+
+def _load_moments(path: Path, step: str) -> dict[str, torch.Tensor]:
+    from safetensors import safe_open
+
+    if not path.is_file():
+        raise ValueError(f"{path}: missing; the run checkpoint beside it needs its optimizer moments to resume")
+    with safe_open(str(path), framework="pt") as f:
+        saved = (f.metadata() or {}).get("step")
+    if saved != step:
+        raise ValueError(f"{path}: expected the moments of step {step}, got step {saved}; copy both checkpoint files together")
+    return load_file(str(path))
+
+
 class RunCheckpoint:
-    """A training run's state in one safetensors file: each named module's weights (keys ``<name>.<param>``),
-    each named optimizer's moments (keys ``<name>.opt.<param>.<state>``; the optimizer named ``""`` has
-    keys ``opt.<param>.<state>``), and in the metadata the config dataclass, the step and the seconds
-    trained. Resuming with explicit settings that differ from the saved config is an error, never a
-    silent override. Tensors are saved from, and loaded onto, the modules' own devices.
+    """A training run's state in two safetensors files: ``path`` holds each named module's weights (keys
+    ``<name>.<param>``) and in its metadata the config dataclass, the step and the seconds trained;
+    :func:`optimizer_path` beside it holds each named optimizer's moments (keys ``<name>.opt.<param>.<state>``;
+    the optimizer named ``""`` has keys ``opt.<param>.<state>``) and the same step. Two files keep each one
+    under the size a repository accepts for a committed campaign checkpoint; a checkpoint written as one
+    file (older versions, moments inside ``path``) still resumes. Resuming with explicit settings that
+    differ from the saved config is an error, never a silent override. Tensors are saved from, and loaded
+    onto, the modules' own devices.
 
     ``param_names``: optimizer parameter ``id`` -> the name its moments are stored under.
     """
@@ -98,14 +119,17 @@ class RunCheckpoint:
     def save(self) -> None:
         from motioncore.files import atomic_output
 
-        tensors = {}
+        tensors, moments = {}, {}
         for name, module in self.modules.items():
             tensors.update({f"{name}.{k}": v.detach().cpu().contiguous() for k, v in module.state_dict().items()})
         for name, opt in self.optimizers.items():
             prefix = f"{name}." if name else ""
-            tensors.update({prefix + k: v.cpu() for k, v in optimizer_tensors(opt, self.param_names).items()})
+            moments.update({prefix + k: v.cpu() for k, v in optimizer_tensors(opt, self.param_names).items()})
         meta = {"config": json.dumps(asdict(self.config)), "step": str(self.step), "elapsed": f"{self.elapsed:.1f}"}
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        # moments first: the weights file's step is what a resume trusts, and it must find moments of that step
+        with atomic_output(optimizer_path(self.path), ".tmp") as tmp:
+            save_file(moments, str(tmp), metadata={"step": str(self.step)})
         with atomic_output(self.path, ".tmp") as tmp:
             save_file(tensors, str(tmp), metadata=meta)
 
@@ -125,6 +149,8 @@ class RunCheckpoint:
             detail = ", ".join(f"{k}: checkpoint {a!r} vs given {b!r}" for k, (a, b) in clash.items())
             raise ValueError(f"{self.path}: cannot resume with different settings ({detail}); use a new output folder")
         tensors = load_file(str(self.path))
+        if self.optimizers and not any(".opt." in k or k.startswith("opt.") for k in tensors):
+            tensors.update(_load_moments(optimizer_path(self.path), meta["step"]))
         for name, module in self.modules.items():
             prefix = f"{name}."
             module.load_state_dict({k[len(prefix):]: v for k, v in tensors.items() if k.startswith(prefix)})
