@@ -1,6 +1,6 @@
 """Quality of the shipped prior and motion encoder on the Bandai-2 test split (issue 4's evidence).
 
-    python benchmarks/eval_prior.py [--data cache/dataset] [--previews prior_previews/] [--threads 2]
+    python benchmarks/eval_prior.py [--data cache/dataset] [--previews prior_previews/] [--threads 2] [--prior W] [--encoder W]
 
 Prints retrieval R@1/R@3 (motion -> text over content captions and over content x style captions,
 text -> motion in galleries of 32), then samples one clip per content x style caption and prints
@@ -25,17 +25,27 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one")
+    ap.add_argument("--encoder", type=Path, help="a motion encoder's weights instead of the shipped one")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
     from evaluation.classifiers import default_weights, load_classifier
     from evaluation.prior_eval import retrieval, sample_quality
     from transfer.dataset import MotionDataset
-    from video2style.pipeline import load_models
+    from transfer.shipped import weights_path
+    from video2style.pipeline import (
+        ENCODER_FILE,
+        PRIOR_FILE,
+        load_models,
+        load_models_from,
+    )
 
     if not (args.data / "features.safetensors").is_file():
         raise SystemExit(f"{args.data}: no dataset cache (video2style dataset ...)")
-    m = load_models()
+    m = load_models() if not (args.prior or args.encoder) else \
+        load_models_from(args.prior or weights_path(PRIOR_FILE), args.encoder or weights_path(ENCODER_FILE))
+    print(f"prior: {m.prior_path}")
     data = MotionDataset(args.data, args.split)
     ret = retrieval(m.motion_encoder, m.text_encoder, data)
     for k, v in ret.items():

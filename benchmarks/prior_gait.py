@@ -1,6 +1,6 @@
 """How the shipped prior's text-to-motion walks step, against real walks: foot skating and ankle lift.
 
-    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--dataset] [REAL.bvh ...]
+    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--dataset] [--prior W] [REAL.bvh ...]
 
 For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: by
 default 50 DDIM steps, guidance 2.5) is measured twice: decoded from its rotation channels (``representation.decode``,
@@ -39,15 +39,25 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=50, help="DDIM steps (default: 50, as the pipeline)")
     ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance (default: 2.5)")
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
+    ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one "
+                    "(e.g. a training run's denoiser.safetensors)")
     args = ap.parse_args()
     import torch
 
     from motioncore.representation import decode, decode_positions
     from transfer.sampling import generate
     from transfer.scheduler import DiffusionScheduler
-    from video2style.pipeline import load_models, place_on_floor, read_clip
+    from transfer.shipped import weights_path
+    from video2style.pipeline import (
+        ENCODER_FILE,
+        load_models,
+        load_models_from,
+        place_on_floor,
+        read_clip,
+    )
 
-    m = load_models()
+    m = load_models_from(args.prior, weights_path(ENCODER_FILE)) if args.prior else load_models()
+    print(f"prior: {m.prior_path}")
     text = m.text_encoder.encode(list(CAPTIONS))
     rows: dict[str, list[tuple[float, float]]] = {}
     for seed in range(args.seeds):

@@ -68,7 +68,7 @@ def test_a_one_file_checkpoint_of_older_versions_still_resumes(tmp_path):
     from safetensors import safe_open
     from safetensors.torch import save_file
 
-    a, opts, ckpt = _trained(tmp_path)
+    _, opts, ckpt = _trained(tmp_path)
     with safe_open(str(ckpt.path), framework="pt") as f:
         meta = f.metadata()
     merged = load_file(str(ckpt.path)) | load_file(str(optimizer_path(ckpt.path)))
