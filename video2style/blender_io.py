@@ -1,0 +1,313 @@
+"""The Blender side of :mod:`video2style.interchange`: runs inside Blender (``blender -b --factory-startup
+--python blender_io.py``) or a Python with the ``bpy`` module (``python blender_io.py``), never imported by
+video2style itself.
+
+One process serves a whole command: it reads one JSON job per line on stdin and answers each with one
+line ``V2S-RESULT {json}`` on stdout (Blender prints its own chatter there too), until stdin closes.
+
+Jobs (every path absolute; each job starts from an empty scene):
+
+* ``{"op": "read", "path": F, "bvh": B, "armature": name|null, "action": name|null}``: import F (.fbx,
+  .glb, .gltf), pick its armature and action, write that action as BVH to B in the armature's own space
+  and units (Blender's BVH exporter). Answers the armature, action, both lists, fps and frame range.
+* ``{"op": "write", "source": F|null, "motion": NPZ, "out": O, "format": "fbx"|"glb"|"gltf", "armature",
+  "action", "up": "Y"|"Z"}``: with a source, import F again and key its armature's bones (matched by name)
+  to the global joint transforms in NPZ (``names``, ``grot`` (T, J, 4) wxyz and ``gpos`` (T, J, 3) in
+  armature units and axes, ``fps``, ``frame_start``), replacing the chosen action; everything else in the
+  file (meshes, materials, skin weights, rest pose, roll, other bones' names) is what the importer made.
+  Without a source, NPZ also carries the skeleton (``parents``, ``offsets``) and a new armature is built.
+  Then export O. Answers the frame range written.
+"""
+import itertools
+import json
+import math
+import os
+import sys
+import traceback
+
+import bpy
+import numpy
+from mathutils import Euler, Quaternion, Vector
+
+if not hasattr(numpy, "bool"):  # Blender 3.4's glTF importer still says numpy.bool
+    numpy.bool = bool
+
+SUFFIXES = (".fbx", ".glb", ".gltf")
+
+
+class JobError(Exception):
+    """Said to the user in one line."""
+
+
+def _clear():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def _import(path):
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix == ".fbx":
+        # anim_offset 0: FBX time t is frame t * fps, as the exporter writes it (the default 1 moves a
+        # clip one frame later at each round trip)
+        bpy.ops.import_scene.fbx(filepath=path, use_anim=True, anim_offset=0.0, automatic_bone_orientation=False,
+                                 ignore_leaf_bones=False)
+    elif suffix in (".glb", ".gltf"):
+        bpy.ops.import_scene.gltf(filepath=path)
+    else:
+        raise JobError(f"{path}: expected .fbx, .glb or .gltf")
+
+
+def _bone_of(data_path):
+    if data_path.startswith('pose.bones["'):
+        return data_path[len('pose.bones["'):].split('"]', 1)[0]
+    return None
+
+
+def _actions_for(arm):
+    """Actions that animate some bone of ``arm``, its active one first."""
+    names = {b.name for b in arm.data.bones}
+    found = [a for a in bpy.data.actions if any(_bone_of(fc.data_path) in names for fc in a.fcurves)]
+    active = arm.animation_data.action if arm.animation_data else None
+    return sorted(found, key=lambda a: (a != active, a.name))
+
+
+def _choose(path, armature, action):
+    """The armature and action to use; a note when there was a choice."""
+    arms = sorted((o for o in bpy.data.objects if o.type == "ARMATURE"), key=lambda o: o.name)
+    if not arms:
+        raise JobError(f"{path}: no armature in the file (video2style styles skeletal animation)")
+    names = [o.name for o in arms]
+    if armature is not None:
+        arm = next((o for o in arms if o.name == armature), None)
+        if arm is None:
+            raise JobError(f"{path}: no armature {armature!r}; the file has {', '.join(names)}")
+    else:
+        animated = [o for o in arms if _actions_for(o)]
+        if len(animated) > 1:
+            raise JobError(f"{path}: {len(animated)} animated armatures ({', '.join(o.name for o in animated)}); "
+                           "choose one with --armature NAME")
+        arm = animated[0] if animated else arms[0]
+    actions = _actions_for(arm)
+    if not actions:
+        raise JobError(f"{path}: armature {arm.name!r} has no animation")
+    if action is not None:
+        act = next((a for a in actions if a.name == action), None)
+        if act is None:
+            raise JobError(f"{path}: no action {action!r} on {arm.name!r}; it has {', '.join(a.name for a in actions)}")
+    else:
+        act = actions[0]
+    arm.animation_data_create()
+    arm.animation_data.action = act
+    notes = []
+    if len(arms) > 1:
+        notes.append(f"used armature {arm.name!r} of {', '.join(names)} (--armature to choose)")
+    if len(actions) > 1:
+        notes.append(f"used action {act.name!r} of {', '.join(a.name for a in actions)} (--action to choose)")
+    return arm, act, names, [a.name for a in actions], notes
+
+
+def _frame_range(act):
+    start, end = act.frame_range
+    return math.floor(start + 1e-6), math.ceil(end - 1e-6)
+
+
+def _gltf_fps(arm, act):
+    """glTF stores seconds; the importer keys them at the scene's fps. The file's own rate, from the spacing
+    of the keys (None when they already fall on whole frames)."""
+    xs = sorted({round(kp.co.x, 4) for fc in act.fcurves for kp in fc.keyframe_points})
+    if len(xs) < 3:
+        return None
+    step = min(b - a for a, b in itertools.pairwise(xs))
+    if step <= 0 or abs(step - 1.0) < 1e-3:
+        return None
+    fps = bpy.context.scene.render.fps / step
+    return fps if 1.0 <= fps <= 1000.0 else None
+
+
+def _load(path, armature, action):
+    _clear()
+    _import(path)
+    arm, act, arms, acts, notes = _choose(path, armature, action)
+    if path.lower().endswith((".glb", ".gltf")):
+        fps = _gltf_fps(arm, act)
+        if fps is not None:  # import again at the file's rate, so that each sample is one frame
+            _clear()
+            bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = round(fps), round(fps) / fps
+            _import(path)
+            arm, act, arms, acts, notes = _choose(path, armature, action)
+    return arm, act, arms, acts, notes
+
+
+def _scene_fps():
+    r = bpy.context.scene.render
+    return r.fps / r.fps_base
+
+
+def job_read(job):
+    path = job["path"]
+    arm, act, arms, acts, notes = _load(path, job.get("armature"), job.get("action"))
+    start, end = _frame_range(act)
+    if end <= start:
+        raise JobError(f"{path}: action {act.name!r} of {arm.name!r} has one frame; nothing to style")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = start, end
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    bpy.ops.export_anim.bvh(filepath=job["bvh"], frame_start=start, frame_end=end, rotate_mode="NATIVE",
+                            root_transform_only=False, global_scale=1.0)
+    meshes = [o.name for o in bpy.data.objects if o.type == "MESH" and o.find_armature() == arm]
+    return {"armature": arm.name, "armatures": arms, "action": act.name, "actions": acts, "notes": notes,
+            "fps": _scene_fps(), "frame_start": start, "frame_end": end, "bones": len(arm.data.bones),
+            "meshes": meshes}
+
+
+def _build_armature(names, parents, offsets):
+    """A new armature from a BVH-like skeleton (armature space = the file's): each bone from its joint to
+    its first child (or along its parent's direction when it has none), roll 0."""
+    data = bpy.data.armatures.new("Armature")
+    arm = bpy.data.objects.new("Armature", data)
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    heads = []
+    for j, p in enumerate(parents):
+        heads.append(Vector(offsets[j]) + (heads[p] if p >= 0 else Vector()))
+    children = {}
+    for j, p in enumerate(parents):
+        children.setdefault(p, []).append(j)
+    bones = []
+    for j, name in enumerate(names):
+        b = data.edit_bones.new(name)
+        b.head = heads[j]
+        kids = children.get(j, [])
+        direction = (heads[kids[0]] - heads[j]) if kids else None
+        if direction is None or direction.length < 1e-6:
+            direction = (heads[j] - heads[parents[j]]) * 0.5 if parents[j] >= 0 else Vector((0, 0, 0))
+        if direction.length < 1e-6:
+            direction = Vector((0.0, 0.1 * max(1e-3, max((h.length for h in heads), default=1.0)), 0.0))
+        b.tail = heads[j] + direction
+        b.roll = 0.0
+        if parents[j] >= 0:
+            b.parent = bones[parents[j]]
+        bones.append(b)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return arm
+
+
+def _key(arm, act_name, npz):
+    """Key every bone of ``arm`` named in ``npz`` to its global transforms; returns the new action and its range."""
+    names = [str(n) for n in npz["names"]]
+    grot, gpos = npz["grot"], npz["gpos"]
+    frames, start = grot.shape[0], int(npz["frame_start"])
+    index = {n: i for i, n in enumerate(names)}
+    bones = [b for b in arm.data.bones if b.name in index]
+    if not bones:
+        raise JobError(f"no bone of {arm.name!r} is in the styled clip")
+    rest = {b.name: b.matrix_local.copy() for b in bones}
+    rest_rot = {n: m.to_3x3() for n, m in rest.items()}
+    action = bpy.data.actions.new(act_name)
+    arm.animation_data_create()
+    arm.animation_data.action = action
+    posed = {}  # desired armature-space matrices of this frame
+    keys = {b.name: [] for b in bones}
+    previous = {}
+    for t in range(frames):
+        for b in bones:
+            i = index[b.name]
+            g = Quaternion(grot[t, i].tolist()).to_matrix()
+            m = (g @ rest_rot[b.name]).to_4x4()
+            m.translation = Vector(gpos[t, i].tolist())
+            posed[b.name] = m
+        for b in bones:
+            m = posed[b.name]
+            parent = b.parent
+            if parent is not None and parent.name in posed:  # pose = parent's pose @ (parent rest^-1 @ rest) @ basis
+                basis = rest[b.name].inverted() @ rest[parent.name] @ posed[parent.name].inverted() @ m
+            else:  # the root, or a parent the clip does not move (it stays at rest)
+                basis = rest[b.name].inverted() @ m
+            loc, rot, _ = basis.decompose()
+            pb = arm.pose.bones[b.name]
+            if pb.rotation_mode == "QUATERNION":
+                q = rot
+                if b.name in previous and previous[b.name].dot(q) < 0:
+                    q = -q
+                previous[b.name] = q
+                keys[b.name].append((loc, tuple(q)))
+            elif pb.rotation_mode == "AXIS_ANGLE":
+                axis, angle = rot.to_axis_angle()
+                keys[b.name].append((loc, (angle, *axis)))
+            else:
+                e = rot.to_euler(pb.rotation_mode, previous.get(b.name))
+                previous[b.name] = e
+                keys[b.name].append((loc, tuple(e)))
+    xs = numpy.arange(start, start + frames, dtype=numpy.float32)
+    for b in bones:
+        pb = arm.pose.bones[b.name]
+        rot_path = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(pb.rotation_mode,
+                                                                                               "rotation_euler")
+        locs = numpy.array([k[0] for k in keys[b.name]], dtype=numpy.float32)
+        rots = numpy.array([k[1] for k in keys[b.name]], dtype=numpy.float32)
+        for path, values in (("location", locs), (rot_path, rots), ("scale", numpy.ones((frames, 3), numpy.float32))):
+            for c in range(values.shape[1]):
+                fc = action.fcurves.new(f'pose.bones["{b.name}"].{path}', index=c, action_group=b.name)
+                fc.keyframe_points.add(frames)
+                fc.keyframe_points.foreach_set("co", numpy.stack([xs, values[:, c]], 1).ravel())
+                fc.keyframe_points.foreach_set("interpolation", numpy.full(frames, 2, dtype=numpy.int32))  # LINEAR
+                fc.update()
+    return action, start, start + frames - 1
+
+
+def _export(out, fmt):
+    if fmt == "fbx":
+        bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
+                                 bake_anim_use_all_bones=True, bake_anim_use_nla_strips=False,
+                                 bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
+                                 bake_anim_simplify_factor=0.0, apply_unit_scale=True)
+    elif fmt in ("glb", "gltf"):
+        bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else "GLTF_EMBEDDED",
+                                  export_animations=True, export_nla_strips=False, export_force_sampling=True,
+                                  export_frame_range=True, export_def_bones=False, export_skins=True,
+                                  export_yup=True)
+    else:
+        raise JobError(f"{out}: expected format fbx, glb or gltf, got {fmt!r}")
+
+
+def job_write(job):
+    npz = numpy.load(job["motion"])
+    fps = float(npz["fps"])
+    if job.get("source"):
+        arm, act, _, _, _ = _load(job["source"], job.get("armature"), job.get("action"))
+        name = act.name
+        bpy.data.actions.remove(act)  # the styled action takes its place (and its name)
+    else:
+        _clear()
+        arm = _build_armature([str(n) for n in npz["names"]], npz["parents"].tolist(), npz["offsets"])
+        if job.get("up", "Y") == "Y":  # the file's Y-up space in Blender's Z-up world: the exporters undo it
+            arm.rotation_euler = Euler((math.pi / 2, 0.0, 0.0))
+        name = os.path.splitext(os.path.basename(job["out"]))[0]
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
+    action, start, end = _key(arm, name, npz)
+    scene.frame_start, scene.frame_end = start, end
+    _export(job["out"], job["format"])
+    return {"armature": arm.name, "action": action.name, "frame_start": start, "frame_end": end, "fps": _scene_fps()}
+
+
+def main():
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            job = json.loads(line)
+            result = {"ok": True, **{"read": job_read, "write": job_write}[job["op"]](job)}
+        except JobError as e:
+            result = {"ok": False, "error": str(e)}
+        except Exception as e:  # noqa: BLE001 - one line back to the caller, the job's file named there
+            tb = traceback.format_exc().strip().splitlines()
+            result = {"ok": False, "error": f"Blender: {type(e).__name__}: {e}".strip(), "trace": tb[-6:]}
+        sys.stdout.write("V2S-RESULT " + json.dumps(result) + "\n")
+        sys.stdout.flush()
+
+
+main()

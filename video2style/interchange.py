@@ -1,0 +1,250 @@
+"""FBX and glTF clips in and out, through Blender's own importers and exporters; the rest of video2style stays BVH.
+
+One Blender process (``blender -b`` on PATH, or a Python with the ``bpy`` module from ``pip install
+"video2style[fbx]"``) serves a whole command: :class:`Converter` starts it on the first FBX/glTF file and
+feeds it jobs (:mod:`video2style.blender_io`, the script it runs). Reading a clip writes its armature's
+action as BVH in the armature's own axes and units; writing a result keys the styled joints back onto the
+ORIGINAL file's armature (so a skinned mesh keeps its mesh, materials and weights, bones keep names, rest
+pose and roll) and exports it in the file's format, atomically.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CLIP_SUFFIXES = {".fbx", ".glb", ".gltf"}
+FORMATS = ("bvh", "fbx", "glb", "gltf")
+SCRIPT = Path(__file__).with_name("blender_io.py")
+HOW_TO_GET = ('pip install "video2style[fbx]" (the bpy module, Python 3.11) or install Blender 3.4+ with numpy '
+              "in its Python so that `blender` is on PATH (Debian/Ubuntu: apt install blender python3-numpy)")
+STARTUP_SECONDS = 120.0
+JOB_SECONDS = 600.0
+
+
+class InterchangeError(ValueError):
+    """An FBX/glTF file that cannot be read or written: one line naming it."""
+
+
+def is_clip_file(path: str | os.PathLike) -> bool:
+    """True for an FBX or glTF/GLB file (by its suffix, any case)."""
+    return Path(path).suffix.lower() in CLIP_SUFFIXES
+
+
+def output_suffix(path: str | os.PathLike, fmt: str | None) -> str:
+    """The suffix a result of clip ``path`` gets: ``fmt`` ("bvh", "fbx", "glb", "gltf") or, when None, the input's own."""
+    if fmt is None:
+        return Path(path).suffix.lower()
+    if fmt not in FORMATS:
+        raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    return f".{fmt}"
+
+
+def blender_command() -> list[str] | None:
+    """How to run the Blender-side script: the ``bpy`` module in this Python, else ``blender`` on PATH; None when neither."""
+    if importlib.util.find_spec("bpy") is not None:
+        return [sys.executable, str(SCRIPT)]
+    exe = shutil.which(os.environ.get("VIDEO2STYLE_BLENDER", "blender"))
+    if exe is None:
+        return None
+    return [exe, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT)]
+
+
+def _blender_env() -> dict[str, str]:
+    """The environment for ``blender``: PATH without this Python's own folders (a pyenv or virtualenv
+    ``python3.11`` found first on PATH becomes the embedded Python's home, which lacks Blender's numpy)."""
+    ours = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix)} - {Path("/usr"), Path("/usr/local"), Path("/")}
+    env = {k: v for k, v in os.environ.items() if k != "VIRTUAL_ENV"}
+    keep = [d for d in env.get("PATH", "").split(os.pathsep)
+            if d and not any(Path(d).resolve() == o or o in Path(d).resolve().parents for o in ours)]
+    env["PATH"] = os.pathsep.join(keep)
+    return env
+
+
+class Blender:
+    """One headless Blender process answering jobs (see :mod:`video2style.blender_io`). Started on the
+    first :meth:`call`; :meth:`close` (or leaving a ``with`` block) ends it."""
+
+    def __init__(self):
+        self._proc: subprocess.Popen | None = None
+        self._log = None
+
+    def _start(self, path: Path) -> None:
+        cmd = blender_command()
+        if cmd is None:
+            raise InterchangeError(f"{path}: reading and writing FBX/glTF needs Blender: {HOW_TO_GET}")
+        self._log = tempfile.TemporaryFile()  # noqa: SIM115 - lives as long as the process; close() closes it
+        env = None if cmd[0] == sys.executable else _blender_env()
+        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log, text=True,
+                                      bufsize=1, env=env)
+
+    def call(self, job: dict, path: Path) -> dict:
+        """Run one job; its answer, or :class:`InterchangeError` naming ``path``."""
+        if self._proc is None:
+            self._start(path)
+        proc = self._proc
+        try:
+            proc.stdin.write(json.dumps(job) + "\n")
+            proc.stdin.flush()
+        except (BrokenPipeError, OSError):
+            raise InterchangeError(f"{path}: Blender ended early: {self._tail()}") from None
+        for line in proc.stdout:
+            if line.startswith("V2S-RESULT "):
+                out = json.loads(line[len("V2S-RESULT "):])
+                if not out.pop("ok"):
+                    error = out["error"]
+                    raise InterchangeError(error if error.startswith(str(path)) else f"{path}: {error}")
+                return out
+        tail = self._tail()
+        self.close()
+        raise InterchangeError(f"{path}: Blender ended without an answer: {tail}")
+
+    def _tail(self) -> str:
+        if self._log is None:
+            return "no output"
+        self._log.seek(0)
+        lines = [ln for ln in self._log.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+        if any("numpy" in ln for ln in lines):
+            return f"Blender's Python lacks numpy (its FBX/glTF add-ons need it): {HOW_TO_GET}"
+        return lines[-1] if lines else "no output"
+
+    def close(self) -> None:
+        if self._proc is not None:
+            try:
+                self._proc.stdin.close()
+                self._proc.wait(timeout=30)
+            except (OSError, subprocess.TimeoutExpired):
+                self._proc.kill()
+                self._proc.wait()
+            self._proc = None
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def motion_arrays(bvh: str | os.PathLike) -> dict[str, np.ndarray]:
+    """A BVH file's joints as global transforms in the file's own units and axes, for keying onto an armature:
+    ``names`` (J,), ``grot`` (T, J, 4) wxyz, ``gpos`` (T, J, 3), ``parents`` (J,), ``offsets`` (J, 3), ``fps``."""
+    from motioncore.bvh import read_bvh
+    from motioncore.kinematics import fk
+
+    motion, layout = read_bvh(bvh)
+    grot, gpos = fk(motion.lrot, motion.lpos, motion.skeleton.parents)
+    unit = 1.0 / layout.scale
+    return {"names": np.array(motion.skeleton.names), "grot": grot.numpy().astype(np.float64),
+            "gpos": gpos.numpy().astype(np.float64) * unit, "parents": np.array(motion.skeleton.parents),
+            "offsets": motion.skeleton.offsets.numpy().astype(np.float64) * unit, "fps": np.array(motion.fps)}
+
+
+def _up_axis(bvh: str | os.PathLike) -> str:
+    """"Z" when a BVH skeleton stands along Z (Blender, Unreal), else "Y"."""
+    from motioncore.bvh import read_bvh
+    from motioncore.kinematics import rest_positions
+
+    motion, _ = read_bvh(bvh)
+    span = rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amax(0) - \
+        rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amin(0)
+    return "Z" if float(span[2]) > float(span[1]) else "Y"
+
+
+class Converter:
+    """FBX/glTF <-> BVH for one command: :meth:`to_bvh` reads a clip (BVH paths pass through), :meth:`write`
+    publishes a BVH result in a format, onto the clip's own file when it came from one. One Blender process
+    and one temporary folder for all of it; ``notify(line)`` hears which armature/action was used."""
+
+    def __init__(self, armature: str | None = None, action: str | None = None, notify=None):
+        self.armature, self.action, self.notify = armature, action, notify
+        self.blender = Blender()
+        self._tmp: Path | None = None
+        self._read: dict[Path, tuple[Path, dict]] = {}
+
+    def _folder(self) -> Path:
+        if self._tmp is None:
+            self._tmp = Path(tempfile.mkdtemp(prefix="video2style-interchange-"))
+        return self._tmp
+
+    def to_bvh(self, path: str | os.PathLike) -> Path:
+        """``path`` itself for a BVH; for FBX/glTF a BVH of its armature's action (named like the file)."""
+        path = Path(path)
+        if not is_clip_file(path):
+            return path
+        if path in self._read:
+            return self._read[path][0]
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: no such file")
+        where = self._folder() / str(len(self._read))
+        where.mkdir()
+        bvh = where / f"{path.stem}.bvh"
+        info = self.blender.call({"op": "read", "path": str(path.resolve()), "bvh": str(bvh), "armature": self.armature,
+                                  "action": self.action}, path)
+        if self.notify is not None:
+            for note in info.get("notes", []):
+                self.notify(f"note: {path}: {note}")
+        self._read[path] = (bvh, info)
+        return bvh
+
+    def info(self, path: str | os.PathLike) -> dict | None:
+        """What reading ``path`` found (armature, action, fps, frame range, meshes); None for a BVH."""
+        entry = self._read.get(Path(path))
+        return None if entry is None else entry[1]
+
+    def write(self, bvh: str | os.PathLike, out: str | os.PathLike, source: str | os.PathLike | None = None) -> Path:
+        """Publish the BVH result ``bvh`` as ``out`` (its suffix says the format), atomically. With ``source``
+        (an FBX/glTF clip read by :meth:`to_bvh`) the result is keyed onto that file's armature; else
+        (a BVH source) a new armature is made. ``out`` with .bvh is a plain copy."""
+        from motioncore.files import atomic_output
+
+        out = Path(out)
+        fmt = out.suffix.lower()[1:]
+        if fmt not in FORMATS:
+            raise ValueError(f"{out}: expected an output ending in .bvh, .fbx, .glb or .gltf")
+        if fmt == "bvh":
+            with atomic_output(out) as tmp:
+                shutil.copyfile(bvh, tmp)
+            return out
+        arrays = motion_arrays(bvh)
+        job = {"op": "write", "out": "", "format": fmt, "armature": self.armature, "action": self.action}
+        if source is not None and is_clip_file(source):
+            read = self.info(source) or self._read[Path(source)][1]
+            job.update(source=str(Path(source).resolve()), armature=read["armature"], action=read["action"])
+            arrays["frame_start"] = np.array(read["frame_start"])
+        else:
+            job.update(source=None, up=_up_axis(bvh))
+            arrays["frame_start"] = np.array(1)
+        npz = self._folder() / f"motion{len(list(self._folder().glob('motion*.npz')))}.npz"
+        np.savez(npz, **arrays)
+        job["motion"] = str(npz)
+        try:
+            with atomic_output(out) as tmp:
+                job["out"] = str(Path(tmp).resolve())
+                self.blender.call(job, Path(source) if source is not None else out)
+                if not Path(tmp).is_file() or Path(tmp).stat().st_size == 0:
+                    raise InterchangeError(f"{out}: Blender wrote nothing")
+        finally:
+            npz.unlink(missing_ok=True)
+        return out
+
+    def close(self) -> None:
+        self.blender.close()
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._tmp = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
