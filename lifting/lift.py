@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 from lifting import preload
 from lifting.blazepose.results import TrackResult
 from lifting.filtering import DEFAULT_CUTOFF_HZ
+from lifting.upright import check_rotation, check_upright
 from motioncore.span import Span, check_span
 
 if TYPE_CHECKING:
@@ -59,10 +60,12 @@ def track(
     progress: Progress = None,
     tracker: PoseTracker | None = None,
     span: Span = (None, None),
+    rotate: int = 0,
 ) -> TrackResult:
     """BlazePose over every frame of a video (frames are decoded one at a time).
 
     ``span = (start, end)`` seconds: only frames with ``start <= time < end`` are tracked (None: open end).
+    ``rotate``: 0, 90, 180 or 270 degrees clockwise, applied to every frame before tracking.
     Raises ValueError naming the file for a missing file, one that is not a video, one without
     frames, one that decodes to clearly fewer frames than its header promises (truncated), and a
     span that holds no frame.
@@ -73,7 +76,7 @@ def track(
 
     path = Path(path)
     start_s, end_s = check_span(span, str(path))
-    fps, expected, width, height = video_info(path)
+    fps, expected, width, height = video_info(path, rotate)
     tracker = tracker if tracker is not None else PoseTracker()
     tracker.reset()
     frames: list[PoseFrame] = []
@@ -81,7 +84,7 @@ def track(
     decoded = 0
     bar = _Reporter(progress, expected, f"{path.name}: tracking")
     try:
-        for _, time_s, frame in prefetched(iter_frames(path)):  # decoding overlaps tracking
+        for _, time_s, frame in prefetched(iter_frames(path, rotate)):  # decoding overlaps tracking
             decoded += 1
             bar.update()
             if (start_s is not None and time_s < start_s - 1e-9) or (end_s is not None and time_s >= end_s - 1e-9):
@@ -105,10 +108,16 @@ def lift_video(
     cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
     tracker: PoseTracker | None = None,
     span: Span = (None, None),
+    rotate: int | None = None,
     **options,
 ) -> LiftResult:
     """:func:`track` + :func:`lifting.reconstruct.lift_track` for a video file (``options`` go to
-    ``lift_track``); ``span``: ``(start, end)`` seconds of the video to use."""
+    ``lift_track``); ``span``: ``(start, end)`` seconds of the video to use.
+
+    ``rotate``: degrees clockwise (0, 90, 180, 270) to turn the frames before tracking; None (default):
+    as they are, and a ValueError naming ``--rotate`` when the person is upside down or on their side
+    in most frames (:func:`lifting.upright.check_upright`)."""
+    turn = check_rotation(rotate)
     t0 = time.perf_counter()
     fresh = preload.RECONSTRUCT not in sys.modules
     preload.start(preload.RECONSTRUCT)  # imported beside the tracking
@@ -117,11 +126,13 @@ def lift_video(
         from lifting.track_process import ChildFailedError, track_in_child
 
         try:
-            result = track_in_child(path, bool(progress), span)
+            result = track_in_child(path, bool(progress), span, turn)
         except ChildFailedError:  # e.g. an embedding application whose sys.executable is not Python
             result = None
     if result is None:
-        result = track(path, progress, tracker, span)
+        result = track(path, progress, tracker, span, turn)
+    if rotate is None:
+        check_upright(result, path)
     t1 = time.perf_counter()
     lifted = preload.finish(preload.RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)
     lifted.info["track_s"] = t1 - t0
@@ -134,9 +145,11 @@ def video_to_motion(
     progress: Progress = None,
     cutoff_hz: float | None = DEFAULT_CUTOFF_HZ,
     span: Span = (None, None),
+    rotate: int | None = None,
     **options,
 ) -> Motion:
     """A video of one person -> canonical :class:`Motion` at the **video's frame rate** (resample
     to 20 fps for the models). ``progress``: True for a bar in frames, a callable taking a line of
-    text, or None/False. Raises ValueError (one line, naming the file) for unusable videos."""
-    return lift_video(path, progress, cutoff_hz, span=span, **options).motion
+    text, or None/False. ``rotate``: as :func:`lift_video`. Raises ValueError (one line, naming the
+    file) for unusable videos."""
+    return lift_video(path, progress, cutoff_hz, span=span, rotate=rotate, **options).motion

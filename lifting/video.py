@@ -12,7 +12,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from lifting.upright import check_rotation
+
 DEFAULT_FPS = 30.0
+_CV_ROTATE = {90: cv2.ROTATE_90_CLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_COUNTERCLOCKWISE}
+
+
+def rotate_frame(frame: np.ndarray, rotate: int) -> np.ndarray:
+    """``frame (H,W,C)`` turned ``rotate`` degrees clockwise (one of :data:`lifting.upright.ROTATIONS`)."""
+    return frame if not rotate else cv2.rotate(frame, _CV_ROTATE[rotate])
 
 
 def _open(path: str | Path) -> tuple[Path, cv2.VideoCapture]:
@@ -23,6 +31,7 @@ def _open(path: str | Path) -> tuple[Path, cv2.VideoCapture]:
     if not cap.isOpened():
         cap.release()
         raise ValueError(f"cannot open as a video (not a video or unsupported codec): {path}")
+    cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)  # a phone's rotation tag is applied (OpenCV's FFmpeg default, made sure)
     return path, cap
 
 
@@ -34,8 +43,9 @@ def _fps(cap: cv2.VideoCapture, path: Path) -> float:
     return float(fps)
 
 
-def video_info(path: str | Path) -> tuple[float, int, int, int]:
-    """``(fps, n_frames, width, height)`` of a video file.
+def video_info(path: str | Path, rotate: int = 0) -> tuple[float, int, int, int]:
+    """``(fps, n_frames, width, height)`` of a video file (the size of its frames as :func:`iter_frames`
+    gives them: the file's rotation tag applied, then ``rotate`` degrees clockwise).
 
     ``n_frames`` is the container's count; when the container has none it is
     counted by decoding. Raises ``ValueError`` for a missing file, a file that
@@ -47,7 +57,7 @@ def video_info(path: str | Path) -> tuple[float, int, int, int]:
         ok, frame = cap.read()
         if not ok or frame is None:
             raise ValueError(f"video has no readable frames: {path}")
-        height, width = frame.shape[:2]
+        height, width = rotate_frame(frame, check_rotation(rotate)).shape[:2]
         n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
         if n_frames <= 0:
             n_frames = 1
@@ -58,27 +68,31 @@ def video_info(path: str | Path) -> tuple[float, int, int, int]:
         cap.release()
 
 
-def iter_frames(path: str | Path) -> Iterator[tuple[int, float, np.ndarray]]:
+def iter_frames(path: str | Path, rotate: int = 0) -> Iterator[tuple[int, float, np.ndarray]]:
     """Iterator of ``(index, time_s, frame_bgr)``, decoding one frame at a time.
+
+    A rotation tag in the file's metadata (a phone held upright) is applied by OpenCV; ``rotate``
+    (0, 90, 180, 270 degrees clockwise) then turns every frame, e.g. for a video filmed upside down.
 
     ``frame_bgr`` is (H,W,3) uint8 in OpenCV's BGR order; ``time_s`` =
     index / fps (constant frame rate assumed). A missing or unopenable file
     raises ``ValueError`` at the call; a video without a single readable frame
     raises it on the first ``next()``.
     """
+    rotate = check_rotation(rotate)
     path, cap = _open(path)
     fps = _fps(cap, path)
-    return _frames(path, cap, fps)
+    return _frames(path, cap, fps, rotate)
 
 
-def _frames(path: Path, cap: cv2.VideoCapture, fps: float) -> Iterator[tuple[int, float, np.ndarray]]:
+def _frames(path: Path, cap: cv2.VideoCapture, fps: float, rotate: int) -> Iterator[tuple[int, float, np.ndarray]]:
     try:
         index = 0
         while True:
             ok, frame = cap.read()
             if not ok or frame is None:
                 break
-            yield index, index / fps, frame
+            yield index, index / fps, rotate_frame(frame, rotate)
             index += 1
         if index == 0:
             raise ValueError(f"video has no readable frames: {path}")

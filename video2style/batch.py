@@ -105,24 +105,26 @@ def batch_folder(out_dir: Path, progress):
 
 
 def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-              seed: int = 0, progress=print, device: str = "cpu") -> BatchReport:
+              seed: int = 0, progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
     """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
     (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
     output folder that does not load is learned again. One batch per output folder at a time. The models run
-    on ``device`` (:func:`video2style.pipeline.load_models`)."""
+    on ``device`` (:func:`video2style.pipeline.load_models`). ``rotate``: every video's frames turned this many
+    degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
     out_dir = Path(out_dir)
     videos, clips, keys = plan(videos_dir, content_dir)
     with batch_folder(out_dir, progress):
         report = BatchReport()
         for vi, video in enumerate(videos, 1):
             _one_video(video, keys[video], f"[video {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, strength,
-                       learn_config, seed, progress, report, device)
+                       learn_config, seed, progress, report, device, rotate)
         write_index(report, out_dir)
         write_report(report, out_dir)
     return report
 
 
-def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, device: str = "cpu"):
+def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, device: str = "cpu",
+               rotate: int | None = None):
     """The video's style: loaded from the output folder if it is there and valid, else learned."""
     from transfer.style import Style
     from video2style.pipeline import learn_file
@@ -137,18 +139,19 @@ def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, 
     else:
         progress(f"{tag} {video.name}: learning")
     learn_file(video, style_path, style_words=video.stem.replace("_", " "), config=learn_config,
-               progress=lambda s: progress(f"    {s}"), device=device)
+               progress=lambda s: progress(f"    {s}"), device=device, rotate=rotate)
     return Style.load(style_path)
 
 
 def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
-               learn_config, seed: int, progress, report: BatchReport, device: str = "cpu") -> None:
+               learn_config, seed: int, progress, report: BatchReport, device: str = "cpu",
+               rotate: int | None = None) -> None:
     from transfer.style import style_model
     from video2style.pipeline import load_models
 
     t0 = time.time()
     try:
-        style = _style_for(video, out_dir / "styles" / f"{key}.v2s", tag, learn_config, progress, device)
+        style = _style_for(video, out_dir / "styles" / f"{key}.v2s", tag, learn_config, progress, device, rotate)
     except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
         report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
         progress(f"    failed: {e}")

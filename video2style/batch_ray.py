@@ -60,7 +60,8 @@ def task_options(device: str) -> dict:
     return {"num_cpus": 1, "max_retries": 3, **({"num_gpus": 1} if device == "cuda" else {})}
 
 
-def _learn_job(video: str, style_path: str, learn_config, threads: int, device: str = "cpu") -> dict:
+def _learn_job(video: str, style_path: str, learn_config, threads: int, device: str = "cpu",
+               rotate: int | None = None) -> dict:
     """Load or learn one video's style (runs in a Ray worker, on ``device``)."""
     import torch
 
@@ -69,7 +70,7 @@ def _learn_job(video: str, style_path: str, learn_config, threads: int, device: 
     torch.set_num_threads(threads)
     t0 = time.time()
     try:
-        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None, device)
+        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None, device, rotate)
         return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker()}
     except Exception as e:  # noqa: BLE001 - reported as the video's failure
         return {"video": Path(video).name, "status": "failed", "error": f"learn: {e}", "seconds": time.time() - t0,
@@ -94,7 +95,7 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
 
 def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
                   seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
-                  retries: int = 1, progress=print, device: str = "cpu") -> BatchReport:
+                  retries: int = 1, progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
     """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
     CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
     ``report.json`` (one row per item: status, seconds, worker, attempts, error). ``device``: where the
@@ -106,7 +107,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
     from tqdm import tqdm
 
     out_dir = Path(out_dir)
-    videos, clips, keys = plan(videos_dir, content_dir)
+    videos, clips, keys = plan(videos_dir, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
         started_here = not ray.is_initialized()
         on = task_device(device, None) if address is None else None  # a local Ray: this machine's torch decides
@@ -122,7 +123,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
             threads = max(1, (os.cpu_count() or 1) // max(1, int(workers or os.cpu_count() or 1))) if address is None else 1
             learn = ray.remote(_learn_job).options(**task_options(on))
             apply = ray.remote(_apply_job).options(**task_options(on))
-            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads, on):
+            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads, on, rotate):
                        ("learn", v) for v in videos}
             report = BatchReport()
             bar = tqdm(total=len(videos) * (1 + len(clips)), unit="item", desc="batch", disable=progress is None)

@@ -209,7 +209,7 @@ def cmd_learn(args) -> None:
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
-                         span=(args.start, args.end), show_bar=True, device=args.device)
+                         span=(args.start, args.end), show_bar=True, device=args.device, rotate=args.rotate)
     if summary["partial"]:
         print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
     print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
@@ -326,7 +326,8 @@ def cmd_pose(args) -> None:
     if args.preview is not None:
         _writable(args.preview, "--preview")
     info = pose_file(args.video, out, args.preview, args.cutoff if args.cutoff > 0 else None, progress=not args.quiet,
-                     fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end))
+                     fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end),
+                     rotate=args.rotate)
     print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
           f"{info['tracked_frames']}/{info['frames']} frames, trajectory from {info['trajectory']}, "
           f"{info['fps']:.1f} frames/s" + (f"; preview {info['preview']}" if info["preview"] else ""))
@@ -388,11 +389,13 @@ def cmd_batch(args) -> None:
         from video2style.batch_ray import run_batch_ray
 
         report = run_batch_ray(args.videos, args.content, args.output, args.strength, seed=args.seed,
-                               address=None if args.ray == "local" else args.ray, workers=args.workers, device=args.device)
+                               address=None if args.ray == "local" else args.ray, workers=args.workers, device=args.device,
+                               rotate=args.rotate)
     else:
         if args.workers is not None:
             raise CliError("batch: --workers goes with --ray")
-        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed, device=args.device)
+        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed, device=args.device,
+                           rotate=args.rotate)
     print(report.table())
     print(f"report: {args.output / 'report.json'}")
     print(f"index: {args.output / 'index.html'}")
@@ -416,6 +419,13 @@ def _positive_int(v: str) -> int:
     if x <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
     return x
+
+
+def _add_rotate(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--rotate", type=int, choices=(0, 90, 180, 270), metavar="{0,90,180,270}",  # upright.ROTATIONS
+                        help="turn the video's frames this many degrees clockwise before tracking (after the rotation "
+                             "tag a phone writes, which is applied); a person upside down or on their side is refused "
+                             "naming the turn to give; 0 keeps the frames as they are")
 
 
 def _add_device(parser: argparse.ArgumentParser) -> None:
@@ -526,6 +536,7 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
+    _add_rotate(lr)
     _add_device(lr)
     lr.set_defaults(func=cmd_learn)
 
@@ -570,6 +581,7 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("--trajectory", default="auto", help="root path from foot contacts, the camera model, or auto (default)")
     po.add_argument("--start", type=float, help="lift the video from this time on, in seconds")
     po.add_argument("--end", type=float, help="lift the video up to this time, in seconds")
+    _add_rotate(po)
     po.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     po.set_defaults(func=cmd_pose)
 
@@ -584,6 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
                         "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")
     b.add_argument("--workers", type=_positive_int, help="--ray without an address: CPUs to use (default: all)")
+    _add_rotate(b)
     _add_device(b)
     b.set_defaults(func=cmd_batch)
 

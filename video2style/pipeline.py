@@ -108,10 +108,12 @@ def find_bvh_files(folder: Path, recursive: bool = True) -> list[Path]:
 
 
 def read_clip(path: Path, joint_map: dict | None = None, progress=None,
-              span: tuple[float | None, float | None] = (None, None)) -> Clip:
+              span: tuple[float | None, float | None] = (None, None), rotate: int | None = None) -> Clip:
     """A BVH (any supported skeleton) or a video (via the lifting pipeline) -> :class:`Clip`.
 
     ``span = (start, end)`` in seconds (None: from the beginning / to the end) keeps only that part.
+    ``rotate``: a video's frames turned this many degrees clockwise before tracking (see
+    :func:`lifting.lift.lift_video`; None: as they are, a turned person refused); not for a BVH.
     """
     path = Path(path)
     if not path.exists():
@@ -119,8 +121,10 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     if path.suffix.lower() in VIDEO_SUFFIXES:
         from lifting.lift import video_to_motion
 
-        canon = video_to_motion(path, progress=progress, span=span)
+        canon = video_to_motion(path, progress=progress, span=span, rotate=rotate)
         return Clip(path, resample(canon, CANONICAL.fps))
+    if rotate is not None:
+        raise ValueError(f"{path}: --rotate turns a video's frames; this is not a video")
     motion, layout = read_bvh(path)
     if motion.duration > MAX_CLIP_SECONDS:
         raise ValueError(f"{path}: {motion.duration / 3600:.1f} hours long ({motion.num_frames} frames at {motion.fps:g} fps); "
@@ -185,7 +189,7 @@ class PartialStyleError(ValueError):
 def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
                config=None, joint_map: dict | None = None, progress=print, *, allow_partial: bool = False,
                span: tuple[float | None, float | None] = (None, None), show_bar: bool = False,
-               device: str = "cpu") -> dict:
+               device: str = "cpu", rotate: int | None = None) -> dict:
     """Learn a style from a video or BVH on ``device`` (:func:`load_models`) and save it to ``out_path``;
     returns a summary. The noise is drawn on the CPU whatever the device, so a GPU's style differs from the
     CPU's only by the GPU's arithmetic (and its dropout draws).
@@ -193,7 +197,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     If learning is cut short by ``config.max_seconds`` or runs fewer than
     :data:`transfer.style.MIN_ITERATIONS` iterations, raises :class:`PartialStyleError` and writes
     nothing, unless ``allow_partial`` (then the summary's ``partial`` holds the reason).
-    ``span``: ``(start, end)`` seconds of the input to learn from.
+    ``span``: ``(start, end)`` seconds of the input to learn from; ``rotate``: a video's frames turned
+    this many degrees clockwise (:func:`read_clip`).
     """
     from transfer.apply import read_motion
     from transfer.style import StyleConfig, learn_style, partial_reason
@@ -202,7 +207,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     config = config or StyleConfig()
     style_words = style_words or Path(path).stem.replace("_", " ").replace("-", " ")
     progress(f"[1/4] reading {path}")
-    clip = read_clip(path, joint_map, progress=progress, span=span)
+    clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models(device)
     example = (encode(clip.canonical) - m.mean) / m.std

@@ -42,23 +42,27 @@ def pose_file(
     trajectory: str = "auto",
     tracker: PoseTracker | None = None,
     span: tuple[float | None, float | None] = (None, None),
+    rotate: int | None = None,
 ) -> dict:
     """Lift ``video`` to ``out_bvh`` (canonical skeleton, centimetres, the video's fps) and, if
     ``preview`` is given, write an mp4 of landmarks beside the fitted skeleton.
 
-    ``span``: ``(start, end)`` seconds of the video to lift (None: open end).
+    ``span``: ``(start, end)`` seconds of the video to lift (None: open end). ``rotate``: degrees
+    clockwise to turn the frames before tracking (None: none, and a video whose person is upside down or on
+    their side is refused naming ``--rotate``; see :func:`lifting.lift.lift_video`).
     ``progress``: True for bars in frames, a callable taking a line, or None/False. Returns a
     summary dict (frames, tracked span, timings, frames per second, paths). Raises ValueError
     with a one-line message naming the file for unusable videos; nothing is written then.
     """
     video, out_bvh = Path(video), Path(out_bvh)
     t0 = time.perf_counter()
-    lifted = lift_video(video, progress, cutoff_hz, tracker=tracker, span=span, fov_deg=fov_deg, trajectory=trajectory)
+    lifted = lift_video(video, progress, cutoff_hz, tracker=tracker, span=span, rotate=rotate, fov_deg=fov_deg,
+                        trajectory=trajectory)
     t1 = time.perf_counter()
     tmp_preview = None
     try:
         if preview is not None:
-            tmp_preview = _write_preview(video, lifted, Path(preview), progress)
+            tmp_preview = _write_preview(video, lifted, Path(preview), progress, rotate or 0)
         t2 = time.perf_counter()
         from motioncore.bvh import (  # torch: imported while tracking
             BvhLayout,
@@ -119,11 +123,11 @@ def _draw_landmarks(img: np.ndarray, pts: np.ndarray, scale: float, faded: bool)
         cv2.circle(img, tuple(map(int, p[k])), int((thick + 1) * 16), (255, 255, 255), -1, cv2.LINE_AA, 4)
 
 
-def _frames(video: Path, n: int, first: int = 0):
-    """``(index - first, frame)`` of ``n`` frames from frame ``first`` on."""
+def _frames(video: Path, n: int, first: int = 0, rotate: int = 0):
+    """``(index - first, frame)`` of ``n`` frames from frame ``first`` on, turned ``rotate`` degrees clockwise."""
     from lifting.video import iter_frames
 
-    for i, _, frame in iter_frames(video):
+    for i, _, frame in iter_frames(video, rotate):
         if i < first:
             continue
         if i - first >= n:
@@ -131,7 +135,7 @@ def _frames(video: Path, n: int, first: int = 0):
         yield i - first, frame
 
 
-def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress) -> str:
+def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progress, rotate: int = 0) -> str:
     """Render the preview to a temporary file beside ``out``; returns its path (the caller renames)."""
     import cv2  # OpenCV and the torch side only for a preview (pose_file's own work is done by now)
 
@@ -158,7 +162,7 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     try:
         writer = Mp4Writer(tmp, float(tr.fps), size, name=out)
         first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)
-        for i, frame in prefetched(_frames(video, n, first)):  # decoding overlaps the drawing
+        for i, frame in prefetched(_frames(video, n, first, rotate)):  # decoding overlaps the drawing
             left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_LINEAR)
             inside = lifted.start <= i < lifted.stop
             if np.isfinite(tr.image[i]).all():

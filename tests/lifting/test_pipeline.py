@@ -255,6 +255,7 @@ def test_lift_video_tracks_in_a_child_only_while_torch_is_still_loading(monkeypa
     monkeypatch.setattr(preload, "finish", lambda name: fake)
     monkeypatch.setattr(track_process, "track_in_child", lambda *a: calls.append("child") or "a track")
     monkeypatch.setattr(lift, "track", lambda *a: calls.append("here") or "a track")
+    monkeypatch.setattr(lift, "check_upright", lambda *a: None)
     monkeypatch.delitem(sys.modules, preload.RECONSTRUCT, raising=False)
     lift.lift_video(tmp_path / "v.mp4", progress=True)
     lift.lift_video(tmp_path / "v.mp4", progress=print)
