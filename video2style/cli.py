@@ -227,8 +227,11 @@ def _bvh_inputs(paths: list[Path], out_dir: Path) -> list[tuple[Path, Path]]:
             files += [(q, out_dir / q.relative_to(p).parent) for q in find_bvh_files(p)]
         else:
             files.append((p, out_dir))
+    from video2style.interchange import find_clip_files
+
+    files += [(q, out_dir / q.relative_to(p).parent) for p in paths if p.is_dir() for q in find_clip_files(p, out_dir)]
     if not files:
-        raise CliError("apply: no BVH files found in the inputs")
+        raise CliError("apply: no BVH files (nor FBX/glTF clips) found in the inputs")
     seen: dict[Path, Path] = {}
     for clip, where in files:
         target = where / f"{clip.stem}.bvh"
@@ -248,6 +251,9 @@ def cmd_apply(args) -> None:
         run_item, files = _stgcn_runner(args, joint_map)
     else:
         run_item, files = _diffusion_runner(args, joint_map)
+    from video2style.interchange import in_formats
+
+    run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     failed = 0
     for i, (path, where) in enumerate(files, 1):
         try:
@@ -568,6 +574,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
     ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
     ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
+    from video2style.interchange import add_arguments as add_clip_format_arguments
+
+    add_clip_format_arguments(ap, formats=True)
     _add_device(ap)
     ap.set_defaults(func=cmd_apply)
 

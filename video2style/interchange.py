@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -57,7 +58,7 @@ def blender_command() -> list[str] | None:
     return [exe, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT)]
 
 
-def _blender_env() -> dict[str, str]:
+def blender_env() -> dict[str, str]:
     """The environment for ``blender``: PATH without this Python's own folders (a pyenv or virtualenv
     ``python3.11`` found first on PATH becomes the embedded Python's home, which lacks Blender's numpy)."""
     ours = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix)} - {Path("/usr"), Path("/usr/local"), Path("/")}
@@ -81,7 +82,7 @@ class Blender:
         if cmd is None:
             raise InterchangeError(f"{path}: reading and writing FBX/glTF needs Blender: {HOW_TO_GET}")
         self._log = tempfile.TemporaryFile()  # noqa: SIM115 - lives as long as the process; close() closes it
-        env = None if cmd[0] == sys.executable else _blender_env()
+        env = None if cmd[0] == sys.executable else blender_env()
         self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log, text=True,
                                       bufsize=1, env=env)
 
@@ -168,13 +169,21 @@ class Converter:
     def __init__(self, armature: str | None = None, action: str | None = None, notify=None):
         self.armature, self.action, self.notify = armature, action, notify
         self.blender = Blender()
-        self._tmp: Path | None = None
+        self._tmp: list[Path] = []  # the temporary folder, once made
         self._read: dict[Path, tuple[Path, dict]] = {}
+        self._finalizer = weakref.finalize(self, Converter._cleanup, self.blender, self._tmp)
+
+    @staticmethod
+    def _cleanup(blender: Blender, tmp: list[Path]) -> None:
+        blender.close()
+        for folder in tmp:
+            shutil.rmtree(folder, ignore_errors=True)
+        tmp.clear()
 
     def _folder(self) -> Path:
-        if self._tmp is None:
-            self._tmp = Path(tempfile.mkdtemp(prefix="video2style-interchange-"))
-        return self._tmp
+        if not self._tmp:
+            self._tmp.append(Path(tempfile.mkdtemp(prefix="video2style-interchange-")))
+        return self._tmp[0]
 
     def to_bvh(self, path: str | os.PathLike) -> Path:
         """``path`` itself for a BVH; for FBX/glTF a BVH of its armature's action (named like the file)."""
@@ -238,13 +247,82 @@ class Converter:
         return out
 
     def close(self) -> None:
-        self.blender.close()
-        if self._tmp is not None:
-            shutil.rmtree(self._tmp, ignore_errors=True)
-            self._tmp = None
+        """End Blender and remove the temporary BVH files (also done when the converter is collected)."""
+        self._finalizer()
+        self._read.clear()
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+
+
+# ---------------------------------------------------------------------------------------------
+# The commands' side: options, folders, and a BVH-only step made to take and give FBX/glTF.
+
+
+def add_arguments(parser, formats: bool = False) -> None:
+    """``--armature``/``--action`` (which ones of an FBX/glTF file), and ``--format`` for commands that write clips."""
+    parser.add_argument("--armature", help="FBX/glTF input: the armature to use where a file has several")
+    parser.add_argument("--action", help="FBX/glTF input: the action (take) to use where the armature has several")
+    if formats:
+        parser.add_argument("--format", choices=["bvh", "fbx", "glb", "gltf"],
+                            help="write results in this format (default: each input's own; FBX/glTF results keep "
+                                 "the input file's mesh, skin and bones; needs Blender, see README)")
+
+
+def find_clip_files(folder: str | os.PathLike, out_dir: str | os.PathLike | None = None) -> list[Path]:
+    """The FBX/glTF files in ``folder`` and its subfolders (any case of the suffix), sorted; those inside
+    ``out_dir`` (results) left out."""
+    skip = None if out_dir is None else Path(out_dir).resolve()
+    found = [p for p in Path(folder).rglob("*") if p.suffix.lower() in CLIP_SUFFIXES and p.is_file()]
+    if skip is not None:
+        found = [p for p in found if skip not in p.resolve().parents]
+    return sorted(found)
+
+
+def converter_for(args) -> Converter:
+    """The command's :class:`Converter` (made once, kept on ``args``; its Blender ends when the command does)."""
+    conv = getattr(args, "clip_converter", None)
+    if conv is None:
+        conv = Converter(getattr(args, "armature", None), getattr(args, "action", None),
+                         notify=lambda s: print(s, file=sys.stderr))
+        args.clip_converter = conv
+    return conv
+
+
+def as_bvh(args, path: str | os.PathLike | None):
+    """``path`` for the BVH-only steps: itself for a BVH or video, a BVH of its action for FBX/glTF."""
+    if path is None or not is_clip_file(path):
+        return path
+    return converter_for(args).to_bvh(path)
+
+
+def in_formats(args, run_item):
+    """``run_item(clip, folder) -> info`` (BVH in, BVH results named in ``info["output"]``) made to take
+    FBX/glTF clips and to give each result in ``args.format`` (default: the clip's own format)."""
+    fmt = getattr(args, "format", None)
+
+    def run(path, where):
+        suffix = output_suffix(path, fmt) if (is_clip_file(path) or fmt) else ".bvh"
+        if not is_clip_file(path) and suffix == ".bvh":
+            return run_item(path, where)
+        conv = converter_for(args)
+        info = run_item(conv.to_bvh(path), where)
+        info["input"] = str(path)
+        outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
+        if suffix == ".bvh":
+            return info
+        written = []
+        try:
+            for out in outs:
+                written.append(str(conv.write(out, Path(out).with_suffix(suffix),
+                                              source=path if is_clip_file(path) else None)))
+        finally:
+            for out in outs:  # the BVH step's own results
+                Path(out).unlink(missing_ok=True)
+        info["output"] = written if isinstance(info["output"], list) else written[0]
+        return info
+
+    return run
