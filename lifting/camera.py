@@ -12,12 +12,18 @@ import math
 import numpy as np
 
 DEFAULT_FOV_DEG = 60.0  # assumed field of view across the longer image side
+FOV_RANGE = (1.0, 179.0)  # degrees, both ends excluded
+
+
+def check_fov(fov_deg: float) -> None:
+    """ValueError unless ``fov_deg`` is a field of view in :data:`FOV_RANGE` (``pose --fov`` is checked with it)."""
+    if not FOV_RANGE[0] < fov_deg < FOV_RANGE[1]:  # nan too
+        raise ValueError(f"expected a field of view in ({FOV_RANGE[0]:g}, {FOV_RANGE[1]:g}) degrees, got {fov_deg}")
 
 
 def focal_length(width: int, height: int, fov_deg: float = DEFAULT_FOV_DEG) -> float:
     """Focal length in pixels for a field of view ``fov_deg`` across the longer image side."""
-    if not 1.0 < fov_deg < 179.0:
-        raise ValueError(f"expected a field of view in (1, 179) degrees, got {fov_deg}")
+    check_fov(fov_deg)
     return 0.5 * max(width, height) / math.tan(math.radians(fov_deg) / 2)
 
 

@@ -6,6 +6,14 @@ import numpy as np
 
 DEFAULT_CUTOFF_HZ = 3.0  # Hu et al. 2024, §4.6.1
 DEFAULT_ORDER = 4
+CUTOFF_RANGE = (0.1, 30.0)  # Hz: a cutoff a pose track can use (30 Hz: the Nyquist frequency at 60 fps); 0 = off
+
+
+def check_cutoff(cutoff_hz: float) -> None:
+    """ValueError unless ``cutoff_hz`` is 0 (no filter) or in :data:`CUTOFF_RANGE` (``pose --cutoff``)."""
+    if cutoff_hz != 0 and not CUTOFF_RANGE[0] <= cutoff_hz <= CUTOFF_RANGE[1]:  # nan too
+        raise ValueError(f"expected 0 (no filter) or a cutoff from {CUTOFF_RANGE[0]:g} to {CUTOFF_RANGE[1]:g} Hz, "
+                         f"got {cutoff_hz}")
 
 
 def lowpass(x: np.ndarray, fps: float, cutoff_hz: float | None = DEFAULT_CUTOFF_HZ, order: int = DEFAULT_ORDER,

@@ -24,9 +24,14 @@ def rotate_frame(frame: np.ndarray, rotate: int) -> np.ndarray:
 
 
 def _open(path: str | Path) -> tuple[Path, cv2.VideoCapture]:
+    from motioncore.mp4 import quiet_video_logs
+
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a folder, not a video file")
     if not path.is_file():
         raise ValueError(f"video file not found: {path}")
+    quiet_video_logs()  # FFmpeg's "moov atom not found" and the like: our one line says it
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
         cap.release()

@@ -6,6 +6,7 @@ same layout reproduces the file's structure.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
@@ -23,6 +24,7 @@ from motioncore.skeleton import Skeleton
 _CHANNELS = {f"{a}{k}" for a in "XYZ" for k in ("position", "rotation")}
 MAX_JOINTS = 1024
 FRAME_TIME_RANGE = (1e-4, 1.0)  # seconds: 10 kHz to 1 frame per second
+MAX_MAGNITUDE = 1e7  # offsets and channel values, in file units: 10 km in millimetres, 27,000 turns in degrees
 _MOTION_LINE = re.compile(r"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
 _KEYWORDS = {"hierarchy": "HIERARCHY", "root": "ROOT", "joint": "JOINT", "end": "End", "site": "Site",
              "offset": "OFFSET", "channels": "CHANNELS"}  # accepted in any case, as Blender's importer does
@@ -45,6 +47,7 @@ class BvhLayout:
     channels: tuple[tuple[str, ...], ...]
     scale: float = 1.0
     frame_time: str | None = None  # "Frame Time:" as the file wrote it; kept on writing at the same frame rate
+    encoding: str = "utf-8"  # "latin-1" for a file that is not UTF-8: its joint names are written back byte for byte
 
     @staticmethod
     def default(skeleton: Skeleton, order: str = "ZXY", scale: float = 1.0) -> BvhLayout:
@@ -105,6 +108,9 @@ class _Reader:
             raise self.error(f"expected a number for {what}, got {tok!r}", lineno) from None
         if not math.isfinite(v):
             raise self.error(f"expected a finite number for {what}, got {tok!r}", lineno)
+        if abs(v) > MAX_MAGNITUDE:
+            raise self.error(f"expected a number of magnitude at most {MAX_MAGNITUDE:g} for {what}, got {tok[:40]!r}",
+                             lineno)
         return v
 
 
@@ -222,6 +228,9 @@ def _motion_block(path: str, text: str, n_channels: int, declared_only: bool = F
                 raise BvhError(f"{path}:{base + k + 1 + off}: expected {n_channels} values per frame, got {len(ln.split())}")
     if not np.isfinite(data).all():
         raise BvhError(f"{path}: frame data holds NaN or infinite values")
+    if data.size and np.abs(data).max() > MAX_MAGNITUDE:
+        raise BvhError(f"{path}: frame data holds values of magnitude above {MAX_MAGNITUDE:g} "
+                       f"(up to {np.abs(data).max():.3g})")
     return data.reshape(n_frames, n_channels), frame_time, n_frames, time_s
 
 
@@ -316,13 +325,23 @@ def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Moti
             fast = _read_large(path, units)
             if fast is not None:
                 return fast
-        with open(path, "r", encoding="utf-8", errors="replace", newline=None) as f:
-            text = f.read()
+        with open(path, "rb") as f:
+            text, encoding = _decode(f.read())
     except OSError as e:
         raise BvhError(f"{path}: cannot read: {e.strerror or e}") from None
     if not text.strip():
         raise BvhError(f"{path}:1: empty file")
-    return parse_bvh(text, path, units)
+    motion, layout = parse_bvh(text.replace("\r\n", "\n").replace("\r", "\n"), path, units)
+    return motion, dataclasses.replace(layout, encoding=encoding)
+
+
+def _decode(raw: bytes) -> tuple[str, str]:
+    """``(text, encoding)``: UTF-8, else Latin-1 (every byte a character), so that a joint name in a legacy
+    encoding is neither replaced by U+FFFD nor changed when written back with the same encoding."""
+    try:
+        return raw.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        return raw.decode("latin-1"), "latin-1"
 
 
 def _read_large(path: str, units: str | float) -> tuple[Motion, BvhLayout] | None:
@@ -335,13 +354,13 @@ def _read_large(path: str, units: str | float) -> tuple[Motion, BvhLayout] | Non
             size += len(raw)
             if size > STREAM_BYTES:
                 return None
-            line = raw.decode("utf-8", errors="replace")
+            line = raw.decode("latin-1")  # the header is decoded again below, as read_bvh does
             (tail if tail or _MOTION_LINE.match(line.rstrip("\n")) else head).append(line)
             if len([t for t in tail if t.strip()]) == 3:  # MOTION, Frames:, Frame Time:
                 break
         else:
             return None
-        text = "".join(head + tail)
+        text, encoding = _decode("".join(head + tail).encode("latin-1"))
         try:
             hierarchy = _parse_hierarchy(_Reader(path, text.removeprefix("\ufeff")))
             n_ch = sum(len(c) for c in hierarchy[3])
@@ -359,9 +378,10 @@ def _read_large(path: str, units: str | float) -> tuple[Motion, BvhLayout] | Non
                 return None
             data[row:row + len(lines)] = part.reshape(len(lines), n_ch)
             row += len(lines)
-    if row != n_frames or not np.isfinite(data).all():
+    if row != n_frames or not np.isfinite(data).all() or (data.size and np.abs(data).max() > MAX_MAGNITUDE):
         return None
-    return _assemble(hierarchy, data, frame_time, frame_time_text, units)
+    motion, layout = _assemble(hierarchy, data, frame_time, frame_time_text, units)
+    return motion, dataclasses.replace(layout, encoding=encoding)
 
 
 def _depth_first(children: dict[int, list[int]]) -> list[int]:
@@ -436,6 +456,6 @@ def write_bvh(path: str | os.PathLike, motion: Motion, layout: BvhLayout | None 
     """Write atomically (temp file + rename), so a failure never leaves a half-written file; long takes
     are written a chunk of frames at a time."""
     layout = layout or BvhLayout.default(motion.skeleton)
-    with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+    with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding=layout.encoding, newline="\n") as f:
         f.write("\n".join(_header(motion, layout)) + "\n")
         f.writelines("\n".join(_rows(motion, layout, a, min(a + _CHUNK, motion.num_frames))) + "\n" for a in range(0, motion.num_frames, _CHUNK))

@@ -21,6 +21,19 @@ import numpy as np
 from motioncore.files import atomic_output
 
 
+def quiet_video_logs() -> None:
+    """Keep FFmpeg's and OpenCV's own log lines ("moov atom not found", ...) off stderr: every failure they
+    log is one we report in our one line (a video that does not open, a short file). Takes effect when OpenCV
+    first opens a video in the process, and in child processes started later; a user's own
+    ``OPENCV_FFMPEG_LOGLEVEL`` / ``OPENCV_LOG_LEVEL`` (to debug a video) is kept."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    if "OPENCV_LOG_LEVEL" not in os.environ:
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+
+
+quiet_video_logs()  # every mp4 this module writes or checks
+
+
 class Mp4Writer:
     """Frames ``(H, W, 3)`` uint8 BGR of size ``size = (W, H)`` to the mp4 at ``path`` at ``fps``; the
     encoding runs on a helper thread (at most ``depth`` frames queued), overlapping the caller's drawing.

@@ -24,7 +24,9 @@ from motioncore.humanoid import (
     HumanoidMap,
     NotHumanoidError,
     axis_vector,
+    decide_up,
     find_humanoid,
+    up_axis,
 )
 from motioncore.kinematics import fk, rest_positions, to_local
 from motioncore.motion import Motion
@@ -127,13 +129,15 @@ def mapped_children(mapping: tuple[int | None, ...], c: int, spec: CanonicalSpec
     return out
 
 
+def up_basis(axis: str) -> torch.Tensor:
+    """Rotation ``(4,)`` taking the world axis ``axis`` (``"+Z"``, ...) to +Y."""
+    return quat.between(axis_vector(axis).float(), torch.tensor([0.0, 1.0, 0.0]))
+
+
 def detect_up_basis(gpos: torch.Tensor, hips: int, head: int) -> torch.Tensor:
-    """Rotation ``(4,)`` taking the axis nearest the mean hips->head direction of ``gpos (T, J, 3)`` to +Y."""
-    up = (gpos[:, head] - gpos[:, hips]).mean(0)
-    axis = int(up.abs().argmax())
-    v = torch.zeros(3)
-    v[axis] = float(torch.sign(up[axis])) or 1.0
-    return quat.between(v, torch.tensor([0.0, 1.0, 0.0]))
+    """Rotation ``(4,)`` taking the up axis of ``gpos (T, J, 3)`` (:func:`motioncore.humanoid.up_axis`: the
+    axis nearest the mean hips->head direction) to +Y."""
+    return up_basis(up_axis(gpos, hips, head))
 
 
 def make_rig(
@@ -147,16 +151,15 @@ def make_rig(
     which axis is up, else the rest pose does."""
     mapping, map_name, humanoid = find_roles(skeleton, sample, joint_map, source)
     canon = spec.skeleton
+    hips, head = mapping[0], mapping[canon.index("Head")]
     if skeleton.names == canon.names:
         basis = quat.identity()
-    elif sample is not None:  # up from at most 1000 frames spread over the clip (a long take stays cheap)
-        idx = torch.linspace(0, sample.num_frames - 1, min(sample.num_frames, 1000)).long()
-        _, gpos = fk(sample.lrot[idx], sample.lpos[idx], skeleton.parents)
-        basis = detect_up_basis(gpos, mapping[0], mapping[canon.index("Head")])
-    elif humanoid is not None:
-        basis = quat.between(axis_vector(humanoid.up).float(), torch.tensor([0.0, 1.0, 0.0]))
-    else:
-        basis = quat.identity()
+    elif humanoid is not None and (humanoid.joint("Hips"), humanoid.joint("Head")) == (hips, head):
+        basis = up_basis(humanoid.up)  # decided once, by find_humanoid (over the clip when there is one)
+    else:  # a joint map names other hips or head: the same decision on them
+        feet = tuple(mapping[canon.index(f)] for f in ("Foot_L", "Foot_R"))
+        basis = up_basis(decide_up(skeleton, hips, head, *(() if sample is None else (sample.lrot, sample.lpos)),
+                                   feet=feet))
     rest = rest_positions(skeleton.offsets.double(), skeleton.parents)
     canon_rest = rest_positions(canon.offsets.double(), canon.parents)
     of = {s: c for c, s in enumerate(mapping) if s is not None}  # skeleton joint -> canonical joint

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import torch
 from safetensors import safe_open
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load_file, save
 from torch.profiler import record_function
 from tqdm import tqdm
 
@@ -49,16 +49,23 @@ class Style:
     adapters: dict[str, torch.Tensor]
     meta: dict = field(default_factory=dict)
     example: torch.Tensor | None = None  # the style example, canonical features (T, D), for previews
+    source: Path | None = None  # the file it was loaded from: errors about its contents name it
 
     def save(self, path: Path) -> None:
-        """Write atomically under a temporary name of its own (two writers never share one)."""
+        """Write atomically under a temporary name of its own (two writers never share one). A full or
+        read-only disk raises OSError naming ``path`` (the serialised bytes are written by Python, not by
+        safetensors, whose own error is a traceback-only SafetensorError)."""
         from motioncore.files import atomic_output
 
         tensors = {k: v.to("cpu", torch.float16).contiguous() for k, v in self.adapters.items()}
         if self.example is not None:
             tensors["example"] = self.example.to("cpu", torch.float32).contiguous()
-        with atomic_output(path, ".tmp") as tmp:
-            save_file(tensors, str(tmp), metadata={"video2style": json.dumps(self.meta)})
+        data = save(tensors, metadata={"video2style": json.dumps(self.meta)})
+        try:
+            with atomic_output(path, ".tmp") as tmp:
+                tmp.write_bytes(data)
+        except OSError as e:
+            raise OSError(e.errno, e.strerror or str(e), str(path)) from None
 
     @staticmethod
     def load(path: Path) -> Style:
@@ -89,7 +96,7 @@ class Style:
         except ValueError as e:
             raise ValueError(f"{path}: invalid style file: {' '.join(str(e).split())}") from None  # one line, always
         example = tensors.pop("example", None)
-        return Style({k: v.float() for k, v in tensors.items()}, meta, example)
+        return Style({k: v.float() for k, v in tensors.items()}, meta, None if example is None else example.float(), path)
 
 
 def file_sha256(path: Path) -> str:
@@ -354,6 +361,11 @@ def style_model(prior, style: Style, gain: float = 1.0):
     rank = int(style.meta.get("rank", 8))
     model = copy.deepcopy(prior)
     add_lora(model, rank=rank)
-    load_lora_state(model, style.adapters)
+    try:
+        load_lora_state(model, style.adapters)
+    except ValueError as e:
+        if style.source is None:
+            raise
+        raise ValueError(f"{style.source}: invalid style file: {e}") from None
     set_gain(model, gain)
     return model.eval()

@@ -2,8 +2,9 @@
 
 :func:`validate_style` checks the metadata (types, ranges, sizes) and the tensors (names,
 dtypes, finiteness, shapes against the rank, the example's size) and raises ``ValueError`` with
-one line naming the field. Limits are bounds on what a file may make the program do, not on what
-``learn`` writes (it stays well inside them).
+one line naming the field. Limits are bounds on what a file may make the program do (an apply must not
+cost much more than a learned style's); ``learn``'s options are checked against the same ranges before any
+work (:func:`check_config_value`), so learn never writes a file apply refuses.
 """
 from __future__ import annotations
 
@@ -19,13 +20,17 @@ MAX_METADATA = 1 << 20  # characters of JSON metadata
 MAX_TENSOR_VALUES = 20_000_000  # all tensors together (a learned style holds about 0.3 M)
 MAX_RANK = 64
 MAX_EXAMPLE_FRAMES = 20 * 60 * 10  # ten minutes at the canonical 20 fps
-ADAPTER_DTYPES = (torch.float16, torch.float32, torch.bfloat16)
+ADAPTER_DTYPES = (torch.float16, torch.float32, torch.bfloat16, torch.float64)  # float64: converted on loading
+MAX_ADAPTER_VALUE = 1e4  # learned adapters hold values below 10; float16 holds up to 65504
+MAX_EXAMPLE_VALUE = 1e3  # example features: metres, m/s, radians and 6D rotation entries
+MAX_ITERATIONS = 10_000  # about 10 hours of learning on a 2-core CPU at 3.7 s per iteration
+MAX_APPLY_STEPS = 100  # denoising steps per window of one apply pass (the defaults: 6 to stylise, 30 to neutralise)
 # StyleConfig field -> (type, low, high): numbers outside are refused
 CONFIG_RANGES = {
-    "pair_step": (int, 1, 999), "pair_steps": (int, 1, 200), "guidance": (float, 0.0, 20.0),
-    "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 200), "rank": (int, 1, MAX_RANK),
-    "lr": (float, 0.0, 1.0), "iterations": (int, 0, 100_000), "max_seconds": (float, 0.0, 1e7),
-    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 256), "window": (int, 2, 2000),
+    "pair_step": (int, 1, 999), "pair_steps": (int, 1, 100), "guidance": (float, 0.0, 20.0),
+    "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 50), "rank": (int, 1, MAX_RANK),
+    "lr": (float, 0.0, 1.0), "iterations": (int, 1, MAX_ITERATIONS), "max_seconds": (float, 0.0, 7 * 86400.0),
+    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 64), "window": (int, 8, 400),
     "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
     "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
     "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
@@ -51,6 +56,31 @@ def _check_value(name: str, value, kind, low, high) -> None:
         raise ValueError(f"{name}: expected a number from {low} to {high}, got {value}")
 
 
+def check_config_value(name: str, value) -> None:
+    """``value`` for the StyleConfig field ``name`` within the range a style file is held to; ValueError
+    (``expected ..., got ...``, without the field's name) otherwise. The CLI checks its options with it."""
+    kind, low, high = CONFIG_RANGES[name]
+    try:
+        _check_value(name, value, kind, low, high)
+    except ValueError as e:
+        raise ValueError(str(e).removeprefix(f"{name}: ")) from None
+
+
+def apply_cost(config: dict) -> tuple[int, int]:
+    """Denoising steps per window that a style's ``config`` (fields it lacks: the defaults) makes one apply
+    take: ``(to stylise at the strongest --strength, to neutralise a styled clip)``."""
+    from dataclasses import asdict
+
+    from transfer.apply import strength_to_step
+    from transfer.style import StyleConfig
+
+    c = {**asdict(StyleConfig()), **config}
+    k = c["transfer_step"] if c["apply_mode"] == "difference" else strength_to_step(1.0)
+    stylise = max(1, round(c["transfer_steps"] * k / c["transfer_step"]))
+    neutralise = max(1, round(c["pair_steps"] * c["neutralize_step"] / c["pair_step"])) if c["neutralize_step"] else 0
+    return stylise, neutralise
+
+
 def validate_config(config) -> dict:
     """A style file's ``config`` object -> the same dict, checked field by field (unknown fields refused)."""
     from transfer.style import StyleConfig
@@ -64,6 +94,11 @@ def validate_config(config) -> dict:
     for name, value in config.items():
         kind, low, high = CONFIG_RANGES[name]
         _check_value(f"config.{name}", value, kind, low, high)
+    stylise, neutralise = apply_cost(config)
+    if max(stylise, neutralise) > MAX_APPLY_STEPS:
+        raise ValueError(f"config: apply would take {stylise} denoising steps per window to stylise and {neutralise} "
+                         f"to neutralise (transfer_steps x K / transfer_step, pair_steps x neutralize_step / pair_step); "
+                         f"expected at most {MAX_APPLY_STEPS}")
     return config
 
 
@@ -103,6 +138,10 @@ def validate_tensors(tensors: dict[str, torch.Tensor], rank: int) -> None:
             raise ValueError(f"tensor {name[:60]}: expected floating point values, got {t.dtype}")
         if not torch.isfinite(t).all():
             raise ValueError(f"tensor {name[:60]}: holds NaN or infinite values")
+        bound = MAX_EXAMPLE_VALUE if name == "example" else MAX_ADAPTER_VALUE
+        if t.numel() and float(t.abs().max()) > bound:
+            raise ValueError(f"tensor {name[:60]}: expected values of magnitude at most {bound:g}, "
+                             f"got {float(t.abs().max()):.3g}")
 
 
 def validate_style(meta, tensors: dict[str, torch.Tensor]) -> dict:

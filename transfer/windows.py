@@ -31,3 +31,33 @@ def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Te
         total[s:s + length] += w[:, None]
         prev_end = max(prev_end, s + length)
     return out / total.clamp_min(1e-6)
+
+
+def typical_window(x: torch.Tensor, length: int, hop: int) -> int:
+    """Start of the ``length``-frame window of ``x (T, D)`` whose per-feature means and standard deviations are
+    nearest those of the typical window (the median of each over all windows): the most typical part of a long
+    style example, among starts every ``hop`` frames;
+    0 when ``T <= length``. Statistics come from ``hop``-frame blocks, so memory is ``T / hop`` rows, not ``T``."""
+    if x.ndim != 2:
+        raise ValueError(f"typical_window: expected features (T, D), got {tuple(x.shape)}")
+    if not 0 < hop <= length:
+        raise ValueError(f"typical_window: expected 0 < hop <= length, got hop {hop}, length {length}")
+    n = x.shape[0]
+    if n <= length:
+        return 0
+    blocks = n // hop
+    s1 = torch.zeros(blocks + 1, x.shape[1], dtype=torch.float64)
+    s2 = torch.zeros_like(s1)
+    for a in range(0, blocks, 4096):  # block sums, a bounded slice of x at a time
+        b = min(a + 4096, blocks)
+        part = x[a * hop:b * hop].double().reshape(b - a, hop, -1)
+        s1[a + 1:b + 1], s2[a + 1:b + 1] = part.sum(1), (part ** 2).sum(1)
+    s1, s2 = s1.cumsum(0), s2.cumsum(0)
+    k = length // hop  # a window: k blocks
+    starts = torch.arange(0, blocks - k + 1)
+    mean = (s1[starts + k] - s1[starts]) / (k * hop)
+    std = ((s2[starts + k] - s2[starts]) / (k * hop) - mean ** 2).clamp_min(0).sqrt()
+    # the centre: each statistic's median over the windows, so an odd stretch (walking into the frame) moves it
+    # little, where the whole clip's mean would favour windows that mix the odd stretch in
+    score = ((mean - mean.median(0).values) ** 2).sum(1) + ((std - std.median(0).values) ** 2).sum(1)
+    return int(starts[score.argmin()]) * hop

@@ -189,7 +189,8 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
             continue
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
                 "preview": info.get("preview", ""), "player": info.get("player", "")}
-    return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1}
+    return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1,
+            "output": "", "preview": "", "player": ""}  # a failed item wrote nothing (pipeline.write_outputs)
 
 
 def _style_facts(style, strength: float) -> str:
@@ -216,10 +217,12 @@ def write_index(report: BatchReport, out_dir: Path) -> Path:
     page: no video codec needed) with links to the BVH files and the mp4 preview; failures listed."""
     from video2style.results_page import page, player_html
 
-    def rel(p: str) -> str:
+    def rel(p: str) -> str:  # a URL: a clip named "a#b?c%20.bvh" keeps its name
+        from urllib.parse import quote
+
         path = Path(p).resolve()
         try:
-            return str(path.relative_to(out_dir.resolve()))
+            return quote(path.relative_to(out_dir.resolve()).as_posix())
         except ValueError:
             return path.as_uri()
 

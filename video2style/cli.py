@@ -52,6 +52,22 @@ def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     return path
 
 
+STYLE_FILE_BYTES = 8 << 20  # room a style file needs: about 0.6 MB of adapters and up to 20 s of example
+
+
+def _free_space(path: Path, need: int, flag: str) -> None:
+    """Refuse, before any work, an output on a disk with less than ``need`` bytes free (learning takes minutes
+    and a full disk would only be found when writing)."""
+    import shutil
+
+    where = Path(path).parent
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    free = shutil.disk_usage(where).free
+    if free < need:
+        raise CliError(f"{path}: only {free / 1e6:.1f} MB free on its disk ({flag}); {need / 1e6:.0f} MB are needed")
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -62,10 +78,64 @@ def _version() -> str:
 
 
 def _positive(v: str) -> float:
-    x = float(v)
-    if x <= 0:
+    try:
+        x = float(v)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {v}") from None
+    if not x > 0:  # nan too
         raise argparse.ArgumentTypeError(f"expected a positive number, got {v}")
     return x
+
+
+def _style_option(name: str):
+    """An argparse ``type`` for the StyleConfig field ``name``: the range a style file is held to
+    (:func:`transfer.style_schema.check_config_value`), checked while parsing, so learn never writes a file
+    apply refuses. (The schema, and torch with it, is imported only when the option is given.)"""
+
+    def parse(v: str):
+        from transfer.style_schema import CONFIG_RANGES, check_config_value
+
+        kind, low, high = CONFIG_RANGES[name]
+        try:
+            value = kind(v)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'} from {low} "
+                                             f"to {high}, got {v}") from None
+        try:
+            check_config_value(name, value)
+        except ValueError as e:  # the value as typed, not as parsed
+            raise argparse.ArgumentTypeError(f"{str(e).rsplit(', got ', 1)[0]}, got {v}") from None
+        return value
+
+    return parse
+
+
+def _checked(convert, check):
+    """An argparse ``type``: ``convert(v)`` then ``check(value)``, whose ValueError ("expected ..., got ...")
+    argparse prints after the option's name."""
+
+    def parse(v: str):
+        try:
+            value = convert(v)
+            check(value)
+        except ValueError as e:  # the value as typed, not as parsed
+            raise argparse.ArgumentTypeError(f"{str(e).rsplit(', got ', 1)[0]}, got {v}" if "expected" in str(e)
+                                             else f"expected a number, got {v}") from None
+        return value
+
+    return parse
+
+
+def _fov(v: str) -> float:
+    from lifting.camera import check_fov
+
+    return _checked(float, check_fov)(v)
+
+
+def _cutoff(v: str) -> float:
+    from lifting.filtering import check_cutoff
+
+    return _checked(float, check_cutoff)(v)
 
 
 def cmd_dataset(args) -> None:
@@ -207,6 +277,7 @@ def cmd_learn(args) -> None:
     if args.seed is not None:
         config = replace(config, seed=args.seed)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
+    _free_space(out, STYLE_FILE_BYTES, "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
                          span=(args.start, args.end), show_bar=True, device=args.device, rotate=args.rotate)
@@ -331,7 +402,7 @@ def cmd_pose(args) -> None:
     out = _writable(args.output or args.video.with_suffix(".bvh"), "-o")
     if args.preview is not None:
         _writable(args.preview, "--preview")
-    info = pose_file(args.video, out, args.preview, args.cutoff if args.cutoff > 0 else None, progress=not args.quiet,
+    info = pose_file(args.video, out, args.preview, args.cutoff or None, progress=not args.quiet,
                      fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end),
                      rotate=args.rotate)
     print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
@@ -532,13 +603,13 @@ def build_parser() -> argparse.ArgumentParser:
                     "unless the style's config turns on lambda_s (default: from the file name)")
     lr.add_argument("--text", help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
-    lr.add_argument("--iterations", type=_positive_int,
+    lr.add_argument("--iterations", type=_style_option("iterations"),
                     help=f"fine-tuning iterations: the budget, the same on any machine (default: {StyleConfig.iterations})")
-    lr.add_argument("--max-seconds", type=_positive,
+    lr.add_argument("--max-seconds", type=_style_option("max_seconds"),
                     help="optional wall-clock cap on learning; if it cuts learning short, learn fails unless --allow-partial")
     lr.add_argument("--allow-partial", action="store_true",
                     help=f"keep a style cut short by --max-seconds or learned in fewer than {MIN_ITERATIONS} iterations")
-    lr.add_argument("--seed", type=int, help=f"random seed (default: {StyleConfig.seed})")
+    lr.add_argument("--seed", type=_style_option("seed"), help=f"random seed (default: {StyleConfig.seed})")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
@@ -563,7 +634,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--tempo", default="off",
                     help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
                          "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
-    ap.add_argument("--seed", type=int, default=0, help="noise seed: the same seed gives the same result (default: %(default)s)")
+    ap.add_argument("--seed", type=_style_option("seed"), default=0,
+                    help="noise seed: the same seed gives the same result (default: %(default)s)")
     ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                     help="neutralise styled content first (auto: when the motion encoder recognises a style)")
     ap.add_argument("--domain", help="stgcn: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
@@ -585,8 +657,8 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("video", type=Path, help="a video of one person (mp4, mov, avi, mkv, webm)")
     po.add_argument("-o", "--output", type=Path, help="output .bvh (default: the video's name with .bvh)")
     po.add_argument("--preview", type=Path, help="also write an mp4: landmarks on the frames beside the fitted skeleton")
-    po.add_argument("--cutoff", type=float, default=3.0, help="Butterworth low-pass cutoff in Hz, 0 = off (default: %(default)s)")
-    po.add_argument("--fov", type=float, default=60.0, help="assumed horizontal field of view in degrees (default: %(default)s)")
+    po.add_argument("--cutoff", type=_cutoff, default=3.0, help="Butterworth low-pass cutoff in Hz, 0 = off (default: %(default)s)")
+    po.add_argument("--fov", type=_fov, default=60.0, help="assumed horizontal field of view in degrees (default: %(default)s)")
     po.add_argument("--trajectory", default="auto", help="root path from foot contacts, the camera model, or auto (default)")
     po.add_argument("--start", type=float, help="lift the video from this time on, in seconds")
     po.add_argument("--end", type=float, help="lift the video up to this time, in seconds")
@@ -600,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--content", type=Path, required=True, help="folder of BVH clips (searched recursively)")
     b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
     b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
-    b.add_argument("--seed", type=int, default=0, help="noise seed for apply (default: %(default)s)")
+    b.add_argument("--seed", type=_style_option("seed"), default=0, help="noise seed for apply (default: %(default)s)")
     b.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                    help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
                         "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")
@@ -679,7 +751,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
     ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"], metavar="METHOD",
                     help=f"some of {', '.join(METHODS)} (default: %(default)s)")
-    ev.add_argument("--iterations", type=_positive_int, help="learning iterations per style example (default: learn's)")
+    ev.add_argument("--iterations", type=_style_option("iterations"), help="learning iterations per style example (default: learn's)")
     ev.add_argument("--strengths", type=float, nargs="+", help="run each variant of ours at these --strength values "
                     "(one row each; tradeoff.png draws the curves)")
     ev.add_argument("--style-cache", type=Path, help="keep learned styles in this folder and reuse them in later runs")

@@ -159,9 +159,10 @@ def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
     return Motion(result.skeleton, lrot[idx], result.lpos, result.fps)
 
 
-def example_motion(style) -> Motion | None:
-    """The style example stored in a style file, decoded for previews."""
-    return None if style.example is None else decode(style.example.float())
+def example_motion(style, frames: int | None = None) -> Motion | None:
+    """The style example stored in a style file, decoded for previews: its first ``frames`` frames (None: all),
+    so that a long example costs a preview no more than the clip beside it does."""
+    return None if style.example is None else decode(style.example[:frames].float())
 
 
 def elapsed(t0: float) -> str:
@@ -207,10 +208,16 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     config = config or StyleConfig()
     style_words = style_words or Path(path).stem.replace("_", " ").replace("-", " ")
     progress(f"[1/4] reading {path}")
+    if Path(path).suffix.lower() in VIDEO_SUFFIXES:
+        _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models(device)
-    example = (encode(clip.canonical) - m.mean) / m.std
+    canonical, used = example_part(clip.canonical, (encode(clip.canonical) - m.mean) / m.std, span[0] or 0.0)
+    if canonical is not clip.canonical:
+        progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s of the input ({clip.canonical.duration:.0f} s read): "
+                 f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
+    example = (encode(canonical) - m.mean) / m.std
     if text is None:
         reading = read_motion(m.motion_encoder, m.text_encoder, example)
         text = reading.content
@@ -222,20 +229,52 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     progress("[3/4] learning")
     style, _ = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
                            m.prior_path, progress=lambda s: progress(f"      {s}"), show_bar=show_bar)
-    tempo = style_tempo(clip.canonical, text, dataset, m.mean, m.std)
+    tempo = style_tempo(canonical, text, dataset, m.mean, m.std)
     if tempo is not None:
         progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
     partial = partial_reason(style.meta)
     if partial and not allow_partial:
         raise PartialStyleError(f"{path}: {partial}; nothing written (give more time or iterations, "
                                 "or --allow-partial to keep it)")
-    style.example = encode(clip.canonical)
-    style.meta.update({"source": Path(path).name, "example_seconds": round(clip.canonical.duration, 2),
-                       "span": list(span), "partial": partial, "tempo": tempo})
+    style.example = encode(canonical)
+    style.meta.update({"source": Path(path).name, "example_seconds": round(canonical.duration, 2),
+                       "span": [round(t, 2) for t in used], "partial": partial, "tempo": tempo})
     progress(f"[4/4] writing {out_path}")
     style.save(out_path)
     return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
             "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size, "partial": partial}
+
+
+MAX_EXAMPLE_SECONDS = 20.0  # learning uses at most this much of its input: a 3-minute video took 16 minutes to
+# learn whole (issue 25), most of it in the pair and the per-iteration work that grow with the example
+
+
+def _announce_long_video(path: Path, span: tuple[float | None, float | None], progress) -> None:
+    """Before tracking: say what a video longer than :data:`MAX_EXAMPLE_SECONDS` (within ``span``) will cost."""
+    from lifting.video import video_info
+
+    fps, frames, _, _ = video_info(path)
+    start, end = span
+    seconds = max(0.0, min(end if end is not None else frames / fps, frames / fps) - (start or 0.0))
+    if seconds > MAX_EXAMPLE_SECONDS:
+        progress(f"      {path.name}: {seconds:.0f} s of video ({seconds * fps:.0f} frames) to track first; learning "
+                 f"then uses its most typical {MAX_EXAMPLE_SECONDS:g} s. To track and learn only a part: "
+                 "--start/--end")
+
+
+def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0) -> tuple[Motion, tuple[float, float]]:
+    """The part of a canonical example (and its normalised ``features (T, D)``) that learning uses: all of it
+    up to :data:`MAX_EXAMPLE_SECONDS`, else its most typical window of that length
+    (:func:`transfer.windows.typical_window`, starts every second). Returns the motion (``canonical`` itself when
+    whole) and its ``(start, end)`` in seconds of the input, ``offset`` being where ``canonical`` starts there."""
+    from transfer.windows import typical_window
+
+    length = int(MAX_EXAMPLE_SECONDS * canonical.fps)
+    if canonical.num_frames <= length:
+        return canonical, (offset, offset + canonical.duration)
+    start = typical_window(features, length, max(1, int(canonical.fps)))
+    part = canonical.slice(start, start + length)
+    return part, (offset + start / canonical.fps, offset + (start + length) / canonical.fps)
 
 
 LOCOMOTION = ("walk", "walk-turn-left", "walk-turn-right", "run")  # contents whose speed a style may change
@@ -266,7 +305,10 @@ def resolve_tempo(style, tempo: str | float) -> float:
     if tempo == "auto":
         value = style.meta.get("tempo")
         return float(value) if isinstance(value, (int, float)) and TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1] else 1.0
-    value = float(tempo)
+    try:
+        value = float(tempo)
+    except ValueError:
+        value = float("nan")  # refused below, with the option's name
     if not TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1]:
         raise ValueError(f"--tempo: expected off, auto or a number from {TEMPO_RANGE[0]} to {TEMPO_RANGE[1]}, got {tempo}")
     return value
@@ -311,7 +353,7 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     clip = warp_clip(read_clip(path, joint_map), speed)
     result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize)
     decided["tempo"] = speed
-    ex = example_motion(style)
+    ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0}
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
@@ -364,12 +406,25 @@ def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
                   preview: bool = True) -> dict:
     """Write each ``(result, tag)`` as BVH on the clip's skeleton (``<name>.bvh`` for one result, else
-    ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths."""
+    ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths.
+    All of a clip's outputs or none: when one fails (a full disk), those this call wrote are removed."""
+    made: list[Path] = []
+    try:
+        return _write_outputs(clip, results, Path(out_dir), extra, preview, made)
+    except BaseException:
+        for path in made:
+            path.unlink(missing_ok=True)
+        raise
+
+
+def _write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]],
+                   preview: bool, made: list[Path]) -> dict:
     stem = Path(clip.path).stem
     outputs, written = [], []
     for motion, tag in results:
         name = f"{stem}.bvh" if len(results) == 1 else f"{stem}_{tag}.bvh"
         on_file = write_result(clip, motion, Path(out_dir) / name)
+        made.append(Path(out_dir) / name)
         if preview:
             written.append((as_written(clip, motion, on_file), tag))
         del on_file  # a long take's copy is not kept past its writing
@@ -396,6 +451,7 @@ def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, 
 
         player = Path(out_dir) / f"{stem}_player.js"
         info["player"] = str(write_player_data(player, str(player.resolve()), shown))
+        made.append(player)
         size = (360, 360) if len(panels) <= 4 else (280, 280)
         info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info

@@ -1,46 +1,77 @@
 """Find the humanoid in any skeleton: which joint plays each canonical role.
 
-The hierarchy and the rest pose decide; joint names only tell left from right when the geometry
-cannot (no feet pointing forward) and pick the head out of a neck chain of look-alike joints.
+The hierarchy and the bones' lengths decide; the pose only says which pair of limbs is the legs and
+which side is left. Joint names tell left from right when the geometry cannot (no feet pointing
+forward), pick the head out of a neck chain of look-alike joints, and decide the whole mapping when no
+pose of the clip can (:mod:`motioncore.humanoid.names`).
 
-* **Limbs** are pairs of sibling subtrees with the same chain of bone lengths (mirror images) that
-  reach at least a quarter of the figure's size. A humanoid has two such pairs: the *legs*, whose
-  common parent is the **Hips** and whose tips point away from the other pair, and the *arms*, whose
-  common parent is the **Chest**. Rest pose: T or A, any up axis, any units.
+* **Which pose is read.** The rest pose, when it is a standing pose (legs hanging straight from the
+  hips). Otherwise (Bandai's rest pose lays every bone along its joint's x axis) frames spread over the
+  whole clip, and the mapping most of them agree on wins.
+* **Limbs** are pairs of sibling subtrees with the same chain of bone lengths (mirror images). A
+  humanoid has two such pairs: the *legs*, whose common parent is the **Hips** and which point away
+  from the other pair (however bent: standing, crouching, sitting, running, lying), and the *arms*,
+  whose common parent is the **Chest** and which are at least 0.4 times as long as the legs (wherever
+  they are: hanging, folded, raised, on the hips, behind the back). Four limbs that all reach the ground
+  below a level spine are a quadruped's.
 * **Leg**: UpperLeg is the first joint away from the Hips (CMU's zero-length ``LHipJoint`` is an
-  extra); Foot is the end of the last bone that points down (within 45°); Toes the next joint, if
-  any; LowerLeg the joint nearest the middle of UpperLeg-Foot.
-* **Arm**: shoulder socket, elbow and wrist are the three joints whose bones best match human arm
-  proportions (upper arm a little longer than the forearm, both a third of the height, a hand
-  beyond the wrist); Shoulder (the clavicle) is the joint before the socket, if any.
+  extra); LowerLeg and Foot (knee and ankle) the pair of joints whose lengths along the bones best
+  match human leg proportions with a foot beyond; Toes the next joint, if any.
+* **Arm**: shoulder socket, elbow and wrist are the three joints whose lengths along the bones best
+  match human arm proportions (upper arm a little longer than the forearm, both a third of the height,
+  a hand beyond the wrist); Shoulder (the clavicle) is the joint before the socket, if any.
+* **Left** is where the hip and shoulder sockets sit -- hands may cross the body, sockets do not --
+  seen from the facing the feet show.
 * **Spine**: the first joint above the Hips that is away from them, unless that is the Chest;
   **Neck** the first joint from the Chest toward the head; **Head** the joint named ``head``, else
-  the last joint with a head's height above it.
+  the last joint with a head's height above it (along the body's own up, hips to chest).
 * Every other joint (extra spine and neck joints, twist and roll bones, fingers, toe ends, props,
   IK targets, joints above the Hips) is an *extra*. Roles that may have no bone: Spine, Neck,
   Shoulder_L/R (no clavicle), Toes_L/R (feet that end in an End Site).
+* **Up** is decided once, by :func:`up_axis`: the world axis nearest the mean hips-to-head direction
+  over the clip (over the pose read when there is no clip). The rig's basis and every preview use it.
 """
 from __future__ import annotations
 
-import itertools
-import math
-import re
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import torch
 
-from motioncore import quat
-from motioncore.kinematics import fk, rest_positions
+from motioncore.humanoid.geometry import (
+    NotHumanoidError,
+    _Geometry,
+    _is_ancestor,
+    _limb_pairs,
+    _Pair,
+)
+from motioncore.humanoid.limbs import (
+    _arm,
+    _chest_below_shoulders,
+    _forward,
+    _head,
+    _leg,
+    _sides,
+)
+from motioncore.humanoid.names import name_side, roles_by_convention
+from motioncore.kinematics import fk
 from motioncore.skeleton import CANONICAL, Skeleton
+
+__all__ = [
+    "OPTIONAL_ROLES",
+    "ROLES",
+    "HumanoidMap",
+    "NotHumanoidError",
+    "axis_vector",
+    "decide_up",
+    "find_humanoid",
+    "name_side",
+    "up_axis",
+]
 
 ROLES = CANONICAL.skeleton.names
 OPTIONAL_ROLES = frozenset({"Spine", "Neck", "Shoulder_L", "Shoulder_R", "Toes_L", "Toes_R"})
 _AXES = ("+X", "+Y", "+Z", "-X", "-Y", "-Z")
-
-
-class NotHumanoidError(ValueError):
-    """No humanoid found; the message names the roles that could not be found and why."""
 
 
 @dataclass(frozen=True)
@@ -80,345 +111,187 @@ def axis_vector(name: str) -> torch.Tensor:
     return v
 
 
-def _core(name: str) -> str:
-    """Lower-case name without namespace prefix, side marks, digits and punctuation."""
-    n = re.split(r"[:|]", name)[-1]
-    n = re.sub(r"(?i)left|right", "", n)
-    n = re.sub(r"(^|[^A-Za-z])[LlRr](?=$|[^A-Za-z])", r"\1", n)
-    n = re.sub(r"^[LR](?=[A-Z])", "", n)
-    return re.sub(r"[^a-z]", "", n.lower())
+FRAMES_READ = 16  # frames spread over the clip that are read when the rest pose is not a standing pose
+UP_FRAMES = 1000  # frames spread over the clip that decide the up axis
 
 
-def name_side(name: str) -> int:
-    """+1 for a left-side name, -1 for right, 0 when the name does not say."""
-    n = re.split(r"[:|]", name)[-1]
-    low = n.lower()
-    left = "left" in low or re.search(r"(^|[^a-z])l($|[^a-z])", low) or re.match(r"^L[A-Z]", n)
-    right = "right" in low or re.search(r"(^|[^a-z])r($|[^a-z])", low) or re.match(r"^R[A-Z]", n)
-    return 0 if bool(left) == bool(right) else (1 if left else -1)
+def up_axis(gpos: torch.Tensor, hips: int, head: int) -> str:
+    """The world axis (``"+Y"``, ``"-Z"``, ...) nearest the mean hips -> head direction of ``gpos (T, J, 3)``.
+
+    The one place the up axis is decided: :func:`find_humanoid` calls it on frames spread over the clip
+    (on the pose read when there is no clip), and the rig's basis and the previews follow its answer."""
+    if gpos.dim() != 3 or gpos.shape[-1] != 3 or gpos.shape[0] == 0:
+        raise ValueError(f"up_axis: expected positions (T>0, J, 3), got {tuple(gpos.shape)}")
+    if not (0 <= hips < gpos.shape[1] and 0 <= head < gpos.shape[1]):
+        raise ValueError(f"up_axis: expected joint indices below {gpos.shape[1]}, got hips {hips}, head {head}")
+    return _axis_name((gpos[:, head] - gpos[:, hips]).double().mean(0))
 
 
-class _Geometry:
-    """Joint positions and end-site tips of one pose (default: the rest pose), subtrees and chains."""
-
-    def __init__(self, sk: Skeleton, pos: torch.Tensor | None = None, grot: torch.Tensor | None = None):
-        self.sk = sk
-        self.pos = rest_positions(sk.offsets.double(), sk.parents) if pos is None else pos.double()
-        self.sites = {j: (e.double() if grot is None else quat.mul_vec(grot[j].double(), e.double()))
-                      for j, e in sk.end_sites.items() if 0 <= j < sk.num_joints}
-        tips = [self.pos[j] + e for j, e in self.sites.items()]
-        pts = torch.cat([self.pos, torch.stack(tips)]) if tips else self.pos
-        self.size = float((pts.max(0).values - pts.min(0).values).max()) or 1.0  # the body's, once the hips are known
-        self.eps = 0.005 * self.size  # joints closer than this coincide
-        self.children = [sk.children(j) for j in range(sk.num_joints)]
-        self.subtree: list[list[int]] = [[j] for j in range(sk.num_joints)]
-        for j in reversed(range(1, sk.num_joints)):
-            self.subtree[sk.parents[j]].extend(self.subtree[j])
-        self.depth = [0.0] * sk.num_joints  # length along the bones from the root
-        for j in range(1, sk.num_joints):
-            self.depth[j] = self.depth[sk.parents[j]] + float(sk.offsets[j].norm())
-
-    def extent(self, j: int) -> float:
-        """Size (largest axis extent) of the subtree of ``j``, end sites included."""
-        pts = torch.stack([p for k in self.subtree[j] for p in self.points(k)])
-        return float((pts.max(0).values - pts.min(0).values).max())
-
-    def points(self, j: int) -> list[torch.Tensor]:
-        """The joint's position and its end-site tip, if any."""
-        p = [self.pos[j]]
-        if j in self.sites:
-            p.append(self.pos[j] + self.sites[j])
-        return p
-
-    def path(self, top: int, bottom: int) -> list[int]:
-        """Joints from ``top`` (excluded) down to ``bottom`` (included)."""
-        out = []
-        while bottom != top:
-            out.append(bottom)
-            bottom = self.sk.parents[bottom]
-        return out[::-1]
-
-    def farthest(self, origin: torch.Tensor, child: int, key=None) -> tuple[int, torch.Tensor]:
-        """The joint of ``child``'s subtree owning the point that maximises ``key(point)``; by default the
-        point farthest along the bones (the longest finger's tip, whatever the pose)."""
-        if key is None:
-            cands = [(self.depth[j] + (float(self.sites[j].norm()) if k else 0.0), j, p)
-                     for j in self.subtree[child] for k, p in enumerate(self.points(j))]
-        else:
-            cands = [(key(p), j, p) for j in self.subtree[child] for p in self.points(j)]
-        best = max(cands, key=lambda t: t[0])
-        return best[1], best[2]
-
-    def chain(self, top: int, child: int) -> tuple[list[int], torch.Tensor]:
-        """Path from ``top`` to the farthest point of ``child``'s subtree, and that point."""
-        end, tip = self.farthest(self.pos[top], child)
-        return self.path(top, end), tip
-
-    def bone_lengths(self, top: int, chain: list[int], tip: torch.Tensor) -> list[float]:
-        pts = [self.pos[top]] + [self.pos[j] for j in chain] + [tip]
-        lengths = [float((b - a).norm()) for a, b in itertools.pairwise(pts)]
-        return [x for x in lengths if x > self.eps]
+def decide_up(skeleton: Skeleton, hips: int, head: int, lrot: torch.Tensor | None = None,
+              lpos: torch.Tensor | None = None, feet: tuple[int, ...] = ()) -> str:
+    """:func:`up_axis` of a skeleton whose Hips and Head (and ``feet``) are known: over at most
+    :data:`UP_FRAMES` frames spread over the clip ``lrot (T, J, 4)``, ``lpos (T, J, 3)``, else over the rest
+    pose when it stands (head above the hips along an axis, the feet below); else ``"+Y"``, the default."""
+    if lrot is not None and lpos is not None and lrot.shape[0] > 0:
+        return up_axis(clip_positions(skeleton, lrot, lpos)[2], hips, head)
+    pos = _Geometry(skeleton).pos
+    up = pos[head] - pos[hips]
+    up = up / up.norm()
+    down = [pos[f] - pos[hips] for f in feet]
+    if float(up.abs().max()) < 0.9 or any(float(d @ -up) < 0.8 * float(d.norm()) for d in down):
+        return "+Y"  # a rest pose that shows no up (Bandai's)
+    return up_axis(pos[None], hips, head)
 
 
-@dataclass
-class _Pair:
-    parent: int
-    a: int  # child joints starting the two limbs
-    b: int
-    reach: float
-
-
-def _limb_pairs(g: _Geometry) -> list[_Pair]:
-    """Sibling subtrees whose chains start with the same bone lengths (mirror images; a hand may have fingers
-    the other lacks) and reach at least a quarter of their parent's subtree."""
-    pairs = []
-    for h in range(g.sk.num_joints):
-        kids = g.children[h]
-        if len(kids) < 2:
-            continue
-        size = g.extent(h)
-        for i, a in enumerate(kids):
-            ca, ta = g.chain(h, a)
-            la = g.bone_lengths(h, ca, ta)
-            reach = float((ta - g.pos[h]).norm())
-            if reach < 0.25 * size or len(la) < 3:
-                continue
-            for b in kids[i + 1:]:
-                cb, tb = g.chain(h, b)
-                lb = g.bone_lengths(h, cb, tb)
-                n = min(len(la), len(lb))
-                if n >= 3 and abs(len(la) - len(lb)) <= 2 and \
-                        all(abs(x - y) <= 0.12 * max(x, y) + 2 * g.eps for x, y in zip(la[:n], lb[:n])):
-                    pairs.append(_Pair(h, a, b, reach))
-    return pairs
-
-
-def _is_ancestor(sk: Skeleton, a: int, b: int) -> bool:
-    while b >= 0:
-        if b == a:
-            return True
-        b = sk.parents[b]
-    return False
-
-
-def _distinct(g: _Geometry, joints: list[int], start: torch.Tensor) -> list[int]:
-    """The joints of a chain at a new position (the first of each group of coincident joints)."""
-    out, last = [], start
-    for j in joints:
-        if float((g.pos[j] - last).norm()) > g.eps:
-            out.append(j)
-            last = g.pos[j]
-    return out
-
-
-_LEG = {"ratio": 1.0, "length": 0.5, "foot": 0.5}  # thigh/shin, (thigh+shin)/figure size, ankle-to-toe-tip/shin
-
-
-def _leg(g: _Geometry, hips: int, child: int, up: torch.Tensor, side: str) -> tuple[dict, dict]:
-    chain, tip = g.chain(hips, child)
-    pts = _distinct(g, chain, g.pos[hips])
-    if len(pts) < 3:
-        raise NotHumanoidError(f"the {side} leg has {len(pts)} bones; a leg needs hip, knee and ankle")
-    upper, a = pts[0], g.pos[pts[0]]
-    best = None
-    for k in range(1, len(pts)):
-        for w in range(k + 1, len(pts)):
-            e, f = g.pos[pts[k]], g.pos[pts[w]]
-            l1, l2 = float((e - a).norm()), float((f - e).norm())
-            cost = 4 * math.log(l1 / l2 / _LEG["ratio"]) ** 2 + math.log((l1 + l2) / g.size / _LEG["length"]) ** 2
-            cost += 1 - float((f - a) @ -up) / float((f - a).norm())  # the leg points down
-            l3 = float((tip - f).norm())  # a foot beyond the ankle
-            cost += min(1.0, math.log(l3 / l2 / _LEG["foot"]) ** 2) if l3 > g.eps else 1.0
-            if best is None or cost < best[0]:
-                best = (cost, k, w)
-    _, k, w = best
-    toes = pts[w + 1] if w + 1 < len(pts) else None
-    roles = {"UpperLeg": upper, "LowerLeg": pts[k], "Foot": pts[w], "Toes": toes}
-    how = {"UpperLeg": "first leg joint away from the hips", "LowerLeg": "leg proportions (knee)",
-           "Foot": "leg proportions (ankle)",
-           "Toes": "joint forward of the ankle" if toes is not None else "none: the foot ends in an End Site"}
-    return roles, how
-
-
-_ARM = {"ratio": 1.08, "length": 0.33, "hand": 0.6}  # upper/forearm, (upper+fore)/figure size, hand/forearm
-_NAMES = {"UpperArm": ("arm", "upperarm", "uparm"), "LowerArm": ("forearm", "lowerarm", "elbow"),
-          "Hand": ("hand", "wrist")}
-
-
-def _arm(g: _Geometry, chest: int, child: int, side: str) -> tuple[dict, dict]:
-    chain, tip = g.chain(chest, child)
-    pts = _distinct(g, chain, g.pos[chest])
-    if len(pts) < 3:
-        raise NotHumanoidError(f"the {side} arm has {len(pts)} bones; an arm needs shoulder, elbow and wrist")
-    branching = [j for j in chain if len(g.children[j]) >= 2]  # the hand splits into fingers (and thumb)
-    fixed = None
-    if branching:
-        at = chain.index(branching[-1])
-        before = [i for i, j in enumerate(pts) if chain.index(j) <= at]
-        fixed = before[-1] if before and before[-1] >= 2 else None
-    best = None
-    for i in range(len(pts)):
-        for k in range(i + 1, len(pts)):
-            for w in range(k + 1, len(pts)) if fixed is None else [fixed]:
-                if not i < k < w:
-                    continue
-                s, e, h = (g.pos[pts[x]] for x in (i, k, w))
-                l1, l2 = float((e - s).norm()), float((h - e).norm())
-                cost = 4 * math.log(l1 / l2 / _ARM["ratio"]) ** 2
-                cost += math.log((l1 + l2) / g.size / _ARM["length"]) ** 2
-                cost += 2 * (1 - float((e - s) @ (h - e)) / (l1 * l2))
-                l3 = float((tip - h).norm())  # a hand beyond the wrist (Bandai's hands end at the wrist)
-                cost += min(1.0, math.log(l3 / l2 / _ARM["hand"]) ** 2) if l3 > g.eps else 0.0
-                cost -= 0.3 * sum(_core(g.sk.names[pts[x]]) in _NAMES[r] for x, r in zip((i, k, w), _NAMES))
-                if best is None or cost < best[0]:
-                    best = (cost, i, k, w)
-    _, i, k, w = best
-    shoulder = chain[0] if chain[0] != pts[i] else None
-    roles = {"Shoulder": shoulder, "UpperArm": pts[i], "LowerArm": pts[k], "Hand": pts[w]}
-    how = {"Shoulder": "first joint from the chest (clavicle)" if shoulder is not None
-           else "none: the upper arm hangs from the chest",
-           "UpperArm": "arm proportions (shoulder socket)", "LowerArm": "arm proportions (elbow)",
-           "Hand": "where the hand splits into fingers (wrist)" if fixed is not None else "arm proportions (wrist)"}
-    return roles, how
-
-
-def _head(g: _Geometry, chest: int, arm_children: set[int], up: torch.Tensor) -> tuple[dict, dict]:
-    kids = [c for c in g.children[chest] if c not in arm_children]
-    if not kids:
-        raise NotHumanoidError("nothing above the chest but the arms: no neck or head")
-    height = lambda p: float(p @ up)
-    cands = [(g.farthest(g.pos[chest], c, key=height), c) for c in kids]
-    (end, top), _ = max(cands, key=lambda t: height(t[0][1]))
-    path = g.path(chest, end)
-    named = [j for j in path if _core(g.sk.names[j]).endswith("head")]  # Head, head, Bip01 Head, J_Bip_C_Head
-    if len(named) == 1:
-        head, how = named[0], "named head"
-    elif float(g.sites.get(end, torch.zeros(3)).norm()) <= g.eps and not g.children[end] and \
-            float(g.sk.offsets[end].norm()) < 0.08 * g.size:
-        head, how = end, "top of the neck chain, a short bone with nothing above it"  # SMPL's head
-    else:
-        tall = [j for j in path if height(top) - height(g.pos[j]) >= 0.05 * g.size]
-        if not tall:
-            raise NotHumanoidError("no head: nothing above the chest reaches a head's height")
-        head, how = tall[-1], "top of the neck chain with a head's height above it"
-    neck = path[0] if path[0] != head else None
-    return ({"Neck": neck, "Head": head},
-            {"Neck": "first joint from the chest toward the head" if neck is not None else "none: the head hangs from the chest",
-             "Head": how})
-
-
-def _chest_below_shoulders(g: _Geometry, hips: int, chest: int, sockets: list[int], up: torch.Tensor,
-                           how: dict) -> int:
-    """The Chest sits below the shoulder sockets. When the arms hang from the base of the neck (3ds Max
-    Biped without "triangle neck"), the Chest is the spine joint below it, and that joint is the Neck."""
-    socket = sum(float(g.pos[j] @ up) for j in sockets) / len(sockets)
-    if socket - float(g.pos[chest] @ up) >= 0.02 * g.size:
-        return chest
-    below = [j for j in g.path(hips, chest)[:-1] if float(g.pos[chest] @ up - g.pos[j] @ up) >= 0.02 * g.size]
-    if not below:
-        return chest
-    how["Chest"] = "spine joint below the base of the neck, where the arms hang"
-    return below[-1]
-
-
-def _forward(g: _Geometry, legs: list[dict], up: torch.Tensor) -> torch.Tensor | None:
-    """Facing direction from the feet (ankle -> toe, or the foot's End Site), None when they do not show it."""
-    dirs = []
-    for leg in legs:
-        ankle = leg["Foot"]
-        d = g.pos[leg["Toes"]] - g.pos[ankle] if leg["Toes"] is not None else g.sites.get(ankle)
-        if d is not None:
-            d = d - (d @ up) * up
-            if float(d.norm()) > g.eps:
-                dirs.append(d / d.norm())
-    if not dirs:
-        return None
-    f = torch.stack(dirs).sum(0)
-    return f / f.norm() if float(f.norm()) > 0.5 * len(dirs) else None
-
-
-def _sides(g: _Geometry, pair: _Pair, left: torch.Tensor | None, what: str) -> tuple[int, int, str]:
-    """(left child, right child, how) of a limb pair: by geometry when ``left`` is known, else by names."""
-    if left is not None:
-        da = float((g.pos[g.subtree[pair.a]].mean(0) - g.pos[pair.parent]) @ left)
-        db = float((g.pos[g.subtree[pair.b]].mean(0) - g.pos[pair.parent]) @ left)
-        if abs(da - db) > g.eps:
-            return (pair.a, pair.b, "left by geometry") if da > db else (pair.b, pair.a, "left by geometry")
-    votes = [sum(name_side(g.sk.names[j]) for j in g.subtree[c]) for c in (pair.a, pair.b)]
-    if votes[0] > 0 > votes[1] or votes[1] > 0 > votes[0]:
-        return (pair.a, pair.b, "left by name") if votes[0] > 0 else (pair.b, pair.a, "left by name")
-    raise NotHumanoidError(f"cannot tell the left {what} from the right: the feet do not show which way the "
-                           "figure faces and the joint names do not say left/right")
+def clip_positions(skeleton: Skeleton, lrot: torch.Tensor, lpos: torch.Tensor, most: int = UP_FRAMES
+                   ) -> tuple[list[int], torch.Tensor, torch.Tensor]:
+    """At most ``most`` frames spread evenly over a clip ``lrot (T, J, 4)``, ``lpos (T, J, 3)``: their
+    indices and global rotations ``(N, J, 4)`` and positions ``(N, J, 3)``."""
+    j = skeleton.num_joints
+    if lrot.dim() != 3 or tuple(lrot.shape[1:]) != (j, 4) or lpos.dim() != 3 or tuple(lpos.shape[1:]) != (j, 3) \
+            or lrot.shape[0] != lpos.shape[0]:
+        raise ValueError(f"expected lrot (T, {j}, 4) and lpos (T, {j}, 3), got {tuple(lrot.shape)} and "
+                         f"{tuple(lpos.shape)}")
+    frames = sorted({int(t) for t in torch.linspace(0, lrot.shape[0] - 1, min(lrot.shape[0], most))})
+    grot, gpos = fk(lrot[frames], lpos[frames], skeleton.parents)
+    return frames, grot, gpos
 
 
 def find_humanoid(skeleton: Skeleton, lrot: torch.Tensor | None = None, lpos: torch.Tensor | None = None) -> HumanoidMap:
     """The :class:`HumanoidMap` of ``skeleton``; raises :class:`NotHumanoidError` saying which roles were not
     found and why.
 
-    The rest pose is read first. When it is not a standing T or A pose (Bandai's rest pose lays every bone
-    along its joint's x axis), frames of a motion on the skeleton -- ``lrot (T, J, 4)``, ``lpos (T, J, 3)``
-    -- are read instead: ten frames spread over the clip, and the mapping most of them agree on wins.
+    The rest pose decides when it is a standing pose. Otherwise (Bandai's rest pose lays every bone along
+    its joint's x axis) :data:`FRAMES_READ` frames spread over a motion on the skeleton -- ``lrot (T, J, 4)``,
+    ``lpos (T, J, 3)`` -- are read, and the mapping most of them agree on wins; where no frame shows a
+    humanoid or they disagree, joint names that match a known convention exactly decide. The up axis is
+    :func:`up_axis` over the clip (over the pose read when there is no clip).
     """
+    has_clip = lrot is not None and lpos is not None and lrot.shape[0] > 0
+    clip = clip_positions(skeleton, lrot, lpos) if has_clip else None
+    rest_error = None
     try:
-        return _find(_Geometry(skeleton), "rest pose")
+        found, standing = _find(_Geometry(skeleton), "rest pose")
     except NotHumanoidError as e:
-        if lrot is None or lpos is None or lrot.shape[0] == 0:
-            raise
-        first_error = e
-    frames = sorted({int(t) for t in torch.linspace(0, lrot.shape[0] - 1, 10)})
-    grot, gpos = fk(lrot[frames], lpos[frames], skeleton.parents)
-    found = []
-    for i, t in enumerate(frames):
+        found, standing, rest_error = None, False, e
+    if found is None or (has_clip and not standing):
+        if has_clip:
+            found = _from_frames(skeleton, *clip)
+        else:
+            found = _by_names(skeleton, f"no pose to read: {rest_error}")
+            if found is None:
+                raise rest_error
+    hips, head = found.joint("Hips"), found.joint("Head")
+    feet = (found.joint("Foot_L"), found.joint("Foot_R"))
+    return replace(found, up=up_axis(clip[2], hips, head) if has_clip else decide_up(skeleton, hips, head, feet=feet))
+
+
+def _from_frames(skeleton: Skeleton, frames: list[int], grot: torch.Tensor, gpos: torch.Tensor) -> HumanoidMap:
+    """The mapping most of :data:`FRAMES_READ` frames spread over the clip agree on."""
+    pick = sorted({int(i) for i in torch.linspace(0, len(frames) - 1, min(len(frames), FRAMES_READ))})
+    found, errors = [], Counter()
+    for i in pick:
         try:
-            found.append(_find(_Geometry(skeleton, gpos[i], grot[i]), f"frame {t}"))
-        except NotHumanoidError:
-            pass
-    if not found:
-        raise first_error
+            found.append(_find(_Geometry(skeleton, gpos[i], grot[i]), f"frame {frames[i]}")[0])
+        except NotHumanoidError as e:
+            errors[str(e)] += 1
     votes = Counter(h.joints for h in found)
-    best = votes.most_common(1)[0][0]
-    return next(h for h in found if h.joints == best)
+    if found:
+        best, n = votes.most_common(1)[0]
+        if 2 * n > len(found):
+            return next(h for h in found if h.joints == best)
+        why = (f"the {len(pick)} frames read disagree ({len(votes)} different mappings, the commonest in {n})"
+               f": {_disputed(found, best)} ambiguous")
+    else:
+        error, n = errors.most_common(1)[0]
+        why = error + (f" (in {n} of the {len(pick)} frames read; the others: {errors.most_common(2)[-1][0]})"
+                       if n < len(pick) else f" (in all {len(pick)} frames read, spread over the clip)")
+    named = _by_names(skeleton, why)
+    if named is not None:
+        return named
+    raise NotHumanoidError(why)
 
 
-def _find(g: _Geometry, pose: str) -> HumanoidMap:
-    skeleton = g.sk
-    pairs = _limb_pairs(g)
-    if not pairs:
-        raise NotHumanoidError("found no pair of mirror-image limbs (legs or arms): Hips, legs, Chest and arms not found")
-    legs = arms = None
+def _disputed(found: list[HumanoidMap], best: tuple) -> str:
+    """The roles on which the frames' mappings differ from the commonest one."""
+    roles = [r for i, r in enumerate(ROLES) if any(h.joints[i] != best[i] for h in found)]
+    return ", ".join(roles)
+
+
+def _by_names(skeleton: Skeleton, why: str) -> HumanoidMap | None:
+    """The mapping the joint names give when they match a known convention exactly (else None)."""
+    named = roles_by_convention(skeleton)
+    if named is None:
+        return None
+    convention, roles = named
+    how = f"named as in the {convention} convention (the geometry could not decide: {why})"
+    return HumanoidMap(tuple(roles[r] for r in ROLES), tuple(how for _ in ROLES), "?", "?", "joint names")
+
+
+def _arrangement(g: _Geometry, pairs: list[_Pair]) -> tuple[_Pair, _Pair]:
+    """(legs, arms): the pair of limb pairs of a humanoid, or :class:`NotHumanoidError` saying why not."""
+    sk = g.sk
+    best, quadruped, seen = None, None, None
     for p in pairs:
         for q in pairs:
-            if p is q or not _is_ancestor(skeleton, p.parent, q.parent):
+            if p.parent == q.parent or not _is_ancestor(sk, p.parent, q.parent) or q.length < 0.4 * p.length:
                 continue
             spine = g.pos[q.parent] - g.pos[p.parent]
             if float(spine.norm()) <= g.eps:
                 continue
             spine = spine / spine.norm()
-            tips = [g.chain(p.parent, c)[1] - g.pos[p.parent] for c in (p.a, p.b)]
-            hanging = all(float(t @ spine) < -0.5 * float(t.norm()) for t in tips)
-            if hanging and (legs is None or p.reach + q.reach > legs.reach + arms.reach):
-                legs, arms = p, q
-    if legs is None:
-        where = ", ".join(sorted({skeleton.names[p.parent] for p in pairs}))
-        if len({p.parent for p in pairs}) == 1:
-            raise NotHumanoidError(f"found one pair of limbs (at {where}); a humanoid has two, legs below a spine that "
-                                   "carries arms: Hips, Chest or the arm or leg roles not found")
-        raise NotHumanoidError(f"found limbs at {where} but no pair hangs below a spine that carries the other "
-                               "(a quadruped?): Hips, legs, Chest and arms not found")
+            seen = seen or (p, q)
+            limbs = [t - g.pos[p.parent] for t in p.tips] + [t - g.pos[q.parent] for t in q.tips]
+            down = torch.stack([v / v.norm() for v in limbs]).sum(0)
+            down = down / down.norm()
+            if all(float(v @ down) > 0.8 * float(v.norm()) for v in limbs) and abs(float(spine @ down)) < 0.5:
+                quadruped = quadruped or (p, q)  # four limbs reach the ground below a level spine
+                continue
+            if all(float(v @ spine) < 0 for v in limbs[:2]) and \
+                    (best is None or p.length + q.length > best[0].length + best[1].length):
+                best = (p, q)  # the legs point away from the arms, however bent
+    if best is not None:
+        return best
+    name = lambda j: sk.names[j]
+    if quadruped is not None:
+        p, q = quadruped
+        raise NotHumanoidError(f"the four limbs at {name(p.parent)} and {name(q.parent)} all reach the ground below "
+                               "a level spine (a quadruped?): Hips, legs, Chest and arms not found")
+    where = ", ".join(sorted({name(p.parent) for p in pairs}))
+    if seen is not None:
+        p, q = seen
+        raise NotHumanoidError(f"cannot tell the legs from the arms (Hips or Chest?): the limbs at {name(p.parent)} "
+                               f"point toward those at {name(q.parent)}, not away from them, in the {g.pose}")
+    if len({p.parent for p in pairs}) == 1:
+        raise NotHumanoidError(f"found one pair of limbs (at {where}); a humanoid has two, legs below a spine that "
+                               "carries arms: Hips, Chest or the arm or leg roles not found")
+    raise NotHumanoidError(f"found limbs at {where} but no pair carries another as long along a spine: Hips, legs, "
+                           "Chest and arms not found")
+
+
+def _find(g: _Geometry, pose: str) -> tuple[HumanoidMap, bool]:
+    """The mapping one pose shows, and whether that pose is a standing one (legs hanging straight)."""
+    skeleton = g.sk
+    g.pose = pose
+    pairs = _limb_pairs(g)
+    if not pairs:
+        raise NotHumanoidError("found no pair of mirror-image limbs (legs or arms): Hips, legs, Chest and arms not found")
+    legs, arms = _arrangement(g, pairs)
     hips, chest = legs.parent, arms.parent
-    g.size = g.extent(hips)  # the body, without joints above the hips (a root far away on the floor)
+    g.size = 1.5 * legs.length  # a figure's height, about 1.5 times hips-to-toe-tip along the bones
     up = g.pos[chest] - g.pos[hips]
-    up_name = _axis_name(up)
-    up = axis_vector(up_name)
+    up = up / up.norm()  # the body's own up: a leaning, sitting or lying figure reads like a standing one
     roles: dict[str, int | None] = {"Hips": hips, "Chest": chest}
     how = {"Hips": "common parent of the legs", "Chest": "common parent of the arms"}
-    fitted = {c: _leg(g, hips, c, up, f"{skeleton.names[c]!r}") for c in (legs.a, legs.b)}  # each leg once
+    fitted = {c: _leg(g, hips, c, f"{skeleton.names[c]!r}") for c in (legs.a, legs.b)}  # each limb once
+    fitted.update({c: _arm(g, chest, c, f"{skeleton.names[c]!r}") for c in (arms.a, arms.b)})
     fwd = _forward(g, [fitted[c][0] for c in (legs.a, legs.b)], up)
-    left = None if fwd is None else torch.linalg.cross(up, axis_vector(_axis_name(fwd)))
-    for pair, what in ((legs, "leg"), (arms, "arm")):
-        lc, rc, side_how = _sides(g, pair, left, what)
+    left = None if fwd is None else torch.linalg.cross(up, fwd)
+    for pair, what, socket in ((legs, "leg", "UpperLeg"), (arms, "arm", "UpperArm")):
+        lc, rc, side_how = _sides(g, pair.parent, (pair.a, pair.b),
+                                  (fitted[pair.a][0][socket], fitted[pair.b][0][socket]), left, what)
         for c, s in ((lc, "L"), (rc, "R")):
-            r, h = fitted[c] if what == "leg" else _arm(g, chest, c, "left" if s == "L" else "right")
+            r, h = fitted[c]
             for k, v in r.items():
                 roles[f"{k}_{s}"] = v
                 how[f"{k}_{s}"] = f"{h[k]}; {side_how}"
@@ -431,5 +304,6 @@ def _find(g: _Geometry, pose: str) -> HumanoidMap:
     h_roles, h_how = _head(g, chest, {arms.a, arms.b}, up)
     roles.update(h_roles)
     how.update(h_how)
-    return HumanoidMap(tuple(roles[r] for r in ROLES), tuple(how[r] for r in ROLES), up_name,
-                       "?" if fwd is None else _axis_name(fwd), pose)
+    standing = all(float((t - g.pos[hips]) @ -up) > 0.9 * float((t - g.pos[hips]).norm()) for t in legs.tips)
+    return HumanoidMap(tuple(roles[r] for r in ROLES), tuple(how[r] for r in ROLES), _axis_name(up),
+                       "?" if fwd is None else _axis_name(fwd), pose), standing

@@ -1,0 +1,146 @@
+"""One pose of a skeleton read as geometry: positions, end sites, subtrees, chains, mirror-image limbs.
+
+Lengths *along the bones* (:attr:`_Geometry.depth`, :meth:`_Geometry.along`) do not change with the
+pose; straight-line distances between joints that a bent joint separates do. The mapping decides
+from the former wherever it can.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import torch
+
+from motioncore import quat
+from motioncore.kinematics import rest_positions
+from motioncore.skeleton import Skeleton
+
+
+class NotHumanoidError(ValueError):
+    """No humanoid found; the message names the roles that could not be found and why."""
+
+
+class _Geometry:
+    """Joint positions and end-site tips of one pose (default: the rest pose), subtrees and chains."""
+
+    def __init__(self, sk: Skeleton, pos: torch.Tensor | None = None, grot: torch.Tensor | None = None):
+        self.sk = sk
+        self.pose = "rest pose" if pos is None else "pose read"  # what errors call it
+        self.pos = rest_positions(sk.offsets.double(), sk.parents) if pos is None else pos.double()
+        self.sites = {j: (e.double() if grot is None else quat.mul_vec(grot[j].double(), e.double()))
+                      for j, e in sk.end_sites.items() if 0 <= j < sk.num_joints}
+        self.children = [sk.children(j) for j in range(sk.num_joints)]
+        self.subtree: list[list[int]] = [[j] for j in range(sk.num_joints)]
+        for j in reversed(range(1, sk.num_joints)):
+            self.subtree[sk.parents[j]].extend(self.subtree[j])
+        self.depth = [0.0] * sk.num_joints  # length along the bones from the root, in this pose
+        rest_depth = [0.0] * sk.num_joints
+        for j in range(1, sk.num_joints):
+            p = sk.parents[j]
+            self.depth[j] = self.depth[p] + float((self.pos[j] - self.pos[p]).norm())
+            rest_depth[j] = rest_depth[p] + float(sk.offsets[j].norm())
+        longest = max(rest_depth[j] + (float(self.sites[j].norm()) if j in self.sites else 0.0)
+                      for j in range(sk.num_joints))
+        self.eps = 0.004 * (longest or 1.0)  # joints closer than this coincide (the same in every pose)
+        self.size = 250 * self.eps  # a first guess of the figure's size; the legs' length sets it once known
+
+    def extent(self, j: int) -> float:
+        """Size (largest axis extent) of the subtree of ``j`` in this pose, end sites included."""
+        pts = torch.stack([p for k in self.subtree[j] for p in self.points(k)])
+        return float((pts.max(0).values - pts.min(0).values).max())
+
+    def points(self, j: int) -> list[torch.Tensor]:
+        """The joint's position and its end-site tip, if any."""
+        p = [self.pos[j]]
+        if j in self.sites:
+            p.append(self.pos[j] + self.sites[j])
+        return p
+
+    def path(self, top: int, bottom: int) -> list[int]:
+        """Joints from ``top`` (excluded) down to ``bottom`` (included)."""
+        out = []
+        while bottom != top:
+            out.append(bottom)
+            bottom = self.sk.parents[bottom]
+        return out[::-1]
+
+    def tip_depth(self, j: int) -> float:
+        """Length along the bones from the root to the end of ``j``: its End Site's tip, else the joint."""
+        return self.depth[j] + (float(self.sites[j].norm()) if j in self.sites else 0.0)
+
+    def along(self, a: int, b: int | None) -> float:
+        """Length along the bones from joint ``a`` down to joint ``b`` (None: to ``a``'s End Site tip)."""
+        return (self.tip_depth(a) if b is None else self.depth[b]) - self.depth[a]
+
+    def farthest(self, origin: torch.Tensor, child: int, key=None) -> tuple[int, torch.Tensor]:
+        """The joint of ``child``'s subtree owning the point that maximises ``key(point)``; by default the
+        point farthest along the bones (the longest finger's tip, whatever the pose)."""
+        if key is None:
+            cands = [(self.depth[j] + (float(self.sites[j].norm()) if k else 0.0), j, p)
+                     for j in self.subtree[child] for k, p in enumerate(self.points(j))]
+        else:
+            cands = [(key(p), j, p) for j in self.subtree[child] for p in self.points(j)]
+        best = max(cands, key=lambda t: t[0])
+        return best[1], best[2]
+
+    def chain(self, top: int, child: int) -> tuple[list[int], torch.Tensor]:
+        """Path from ``top`` to the farthest point of ``child``'s subtree, and that point."""
+        end, tip = self.farthest(self.pos[top], child)
+        return self.path(top, end), tip
+
+    def bone_lengths(self, top: int, chain: list[int], tip: torch.Tensor) -> list[float]:
+        pts = [self.pos[top]] + [self.pos[j] for j in chain] + [tip]
+        lengths = [float((b - a).norm()) for a, b in itertools.pairwise(pts)]
+        return [x for x in lengths if x > self.eps]
+
+
+@dataclass
+class _Pair:
+    parent: int
+    a: int  # child joints starting the two limbs
+    b: int
+    length: float  # along the bones from the parent to the limb's farthest tip (the same in every pose)
+    tips: tuple[torch.Tensor, torch.Tensor]  # those tips in the pose read
+
+
+def _limb_pairs(g: _Geometry) -> list[_Pair]:
+    """Sibling subtrees whose chains start with the same bone lengths (mirror images; a hand may have fingers
+    the other lacks) and are at least a quarter of their parent's subtree long."""
+    pairs = []
+    for h in range(g.sk.num_joints):
+        kids = g.children[h]
+        if len(kids) < 2:
+            continue
+        size = max(g.tip_depth(j) for j in g.subtree[h]) - g.depth[h]
+        for i, a in enumerate(kids):
+            ca, ta = g.chain(h, a)
+            la = g.bone_lengths(h, ca, ta)
+            length = sum(la)
+            if length < 0.25 * size or len(la) < 3:
+                continue
+            for b in kids[i + 1:]:
+                cb, tb = g.chain(h, b)
+                lb = g.bone_lengths(h, cb, tb)
+                n = min(len(la), len(lb))
+                if n >= 3 and abs(len(la) - len(lb)) <= 2 and \
+                        all(abs(x - y) <= 0.12 * max(x, y) + 2 * g.eps for x, y in zip(la[:n], lb[:n])):
+                    pairs.append(_Pair(h, a, b, length, (ta, tb)))
+    return pairs
+
+
+def _is_ancestor(sk: Skeleton, a: int, b: int) -> bool:
+    while b >= 0:
+        if b == a:
+            return True
+        b = sk.parents[b]
+    return False
+
+
+def _distinct(g: _Geometry, joints: list[int], start: torch.Tensor) -> list[int]:
+    """The joints of a chain at a new position (the first of each group of coincident joints)."""
+    out, last = [], start
+    for j in joints:
+        if float((g.pos[j] - last).norm()) > g.eps:
+            out.append(j)
+            last = g.pos[j]
+    return out
