@@ -229,7 +229,8 @@ def test_a_broken_video_gives_our_line_and_no_ffmpeg_log(tmp_path, content):
     path = tmp_path / "bad.mp4"
     path.write_bytes(content)
     code = "import sys\nfrom lifting.video import video_info\ntry:\n    video_info(sys.argv[1])\nexcept ValueError as e:\n    print(e, file=sys.stderr)"
-    err = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=120).stderr
+    err = subprocess.run([sys.executable, "-c", code, str(path)], check=False, capture_output=True, text=True,
+                         timeout=120).stderr
     assert _one_error_line(err) == f"cannot open as a video (not a video or unsupported codec): {path}"
 
 
