@@ -2,15 +2,36 @@
 
 Every writer in the project goes through :func:`atomic_output` (or :func:`atomic_write_text`), so a
 failure, Ctrl-C or SIGTERM never leaves a half-written file under the real name, and the temporary
-names all have one shape (``.NAME.xxxxxxxx<suffix>``) that a batch can sweep after a killed run.
+names all have one shape (``.NAME.v2s-tmp-xxxxxxxx<suffix>``, :func:`temp_beside`) that a batch can sweep after a
+killed run without touching a user's own files (:func:`is_temp_name`).
 """
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+TEMP_MARK = ".v2s-tmp-"  # in every temporary name we make, and in no name we publish
+_TEMP_NAME = re.compile(r"^\..+" + re.escape(TEMP_MARK) + r"[a-z0-9_]{8}\.[A-Za-z0-9]+$")
+
+
+def temp_beside(path: str | os.PathLike, suffix: str | None = None) -> Path:
+    """A new empty file beside ``path`` (its folder made if needed), ``.NAME.v2s-tmp-xxxxxxxx<suffix>``: made with
+    O_EXCL (never an existing file, never through a symlink planted there), mode 0600 until :func:`publish`.
+    ``suffix``: default the path's own, ``.tmp`` if it has none."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}{TEMP_MARK}", suffix=suffix or path.suffix or ".tmp")
+    os.close(fd)
+    return Path(tmp)
+
+
+def is_temp_name(name: str) -> bool:
+    """Whether a file name has the shape of :func:`temp_beside`'s files (a user's ``.notes.20241201.tmp`` has not)."""
+    return bool(_TEMP_NAME.match(name))
 
 
 def publish(tmp: str | os.PathLike, path: str | os.PathLike) -> Path:
@@ -30,10 +51,7 @@ def atomic_output(path: str | os.PathLike, suffix: str | None = None) -> Iterato
     ``tmp`` is an empty file beside ``path`` (its folder made if needed); ``suffix`` (default: the
     path's own, ``.tmp`` if it has none) keeps file-type sniffing writers (OpenCV, matplotlib)
     happy. On any exception, the temporary file is removed and ``path`` is left as it was."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp")
-    os.close(fd)
+    tmp = temp_beside(path, suffix)
     try:
         yield Path(tmp)
         publish(tmp, path)

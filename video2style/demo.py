@@ -22,16 +22,25 @@ def sample_clips() -> list[Path]:
 
 def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
     """Runs pose and batch on ``samples``; returns the batch report (see :mod:`video2style.batch`)."""
-    from video2style.batch import find_videos, run_batch
+    from video2style.batch import (
+        check_batch_outputs,
+        find_videos,
+        run_batch,
+        video_keys,
+    )
+    from video2style.paths import check_outputs
     from video2style.pose import pose_file
 
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     from video2style.pipeline import find_bvh_files
 
     clips, videos = find_bvh_files(samples, recursive=False), find_videos(samples)
     if not clips or not videos:
         raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python video2style/samples/make_samples.py)")
+    check_outputs([("-o", out_dir / "pose" / f"{v.stem}{end}") for v in videos for end in (".bvh", "_pose.mp4")],
+                  [("the sample", p) for p in clips + videos])
+    check_batch_outputs(samples, samples, out_dir, list(video_keys(videos).values()))
+    out_dir.mkdir(parents=True, exist_ok=True)
     progress(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
         f"{len(clips)} clip(s) ({', '.join(c.name for c in clips)})")
     for video in videos:

@@ -1,10 +1,13 @@
-"""Where video2style keeps things on a user's machine."""
+"""Where video2style keeps things on a user's machine, and the one check that its outputs never overwrite its
+inputs (:func:`check_outputs`)."""
 from __future__ import annotations
 
 import os
 import shutil
 import sys
 from pathlib import Path
+
+LOCK_NAME = ".video2style.lock"  # held by the batch or apply writing a folder; it also marks that folder as results
 
 
 def cache_dir() -> Path:
@@ -25,3 +28,56 @@ def console_script() -> Path:
     this environment; a pyenv shim on PATH would add its own start-up), else the one on PATH."""
     beside = Path(sys.executable).with_name("video2style")
     return beside if beside.is_file() else Path(shutil.which("video2style") or "video2style")
+
+
+def _keys(path: Path) -> tuple:
+    """How a path is told apart: its device and inode where it exists (hard links, symlinks and every spelling of
+    one file meet there), and its real path (symlinks and ``..`` resolved) for one that does not exist yet."""
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(path)
+    except OSError:
+        return (real,)
+    return ((st.st_dev, st.st_ino), real)
+
+
+def same_path(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether ``a`` and ``b`` name one file or folder (``./x``, ``../d/x``, a symlink or a hard link to it)."""
+    return bool(set(_keys(Path(a))) & set(_keys(Path(b))))
+
+
+def inside(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
+    """Whether ``path`` is ``folder`` or lies below it (real paths: symlinks followed)."""
+    p, f = Path(os.path.realpath(path)), Path(os.path.realpath(folder))
+    return p == f or f in p.parents
+
+
+def check_outputs(outputs, inputs) -> None:
+    """Refuse, before any work, a run whose outputs would overwrite its inputs or one another: the one check every
+    command makes.
+
+    ``outputs``: ``(option, path)`` for each file or folder the run writes (e.g. ``("-o", out / "x.bvh")``);
+    ``inputs``: ``(what, path)`` for each file or folder it reads (e.g. ``("the input video", video)``). ``None``
+    paths are left out. Paths are compared as files: by inode where they exist, else by real path. Raises a
+    one-line ValueError naming the output, the option and the input."""
+    seen: dict = {}
+    for what, path in inputs:
+        if path is not None:
+            for key in _keys(Path(path)):
+                seen.setdefault(key, ("in", what, Path(path)))
+    for option, path in outputs:
+        if path is None:
+            continue
+        path = Path(path)
+        keys = _keys(path)
+        for key in keys:
+            if key in seen:
+                side, what, other = seen[key]
+                if side == "in":
+                    raise ValueError(f"{path}: {option} is {what} {other}: results would overwrite the input; "
+                                     "give another path")
+                if option == what:
+                    raise ValueError(f"{path}: {option} would write this file twice in one run; give distinct paths")
+                raise ValueError(f"{path}: {what} and {option} name the same file; give each its own")
+        for key in keys:
+            seen.setdefault(key, ("out", option, path))

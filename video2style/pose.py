@@ -9,8 +9,6 @@ end, so a failure leaves neither.
 
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,7 +19,7 @@ from lifting.blazepose.results import POSE_CONNECTIONS
 from lifting.camera import DEFAULT_FOV_DEG
 from lifting.filtering import DEFAULT_CUTOFF_HZ
 from lifting.lift import Progress, _Reporter, lift_video
-from motioncore.files import publish
+from motioncore.files import publish, temp_beside
 
 if TYPE_CHECKING:
     from lifting.blazepose.tracker import PoseTracker
@@ -153,9 +151,7 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     positions = np.full((n, sk.num_joints, 3), np.nan, np.float32)
     positions[lifted.start:lifted.stop] = lifted.motion.global_positions().numpy()
     panel = Panel(positions, sk.parents, "fitted skeleton", names=sk.names)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".mp4")
-    os.close(fd)
+    tmp = str(temp_beside(out, ".mp4"))
     size = (width + height, height)
     writer = None
     bar = _Reporter(progress, n, f"{out.name}: preview")
