@@ -19,6 +19,26 @@ import bpy
 args = json.loads(sys.argv[sys.argv.index("--") + 1])
 spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
 io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
+if args["op"] == "odd":  # files video2style must refuse, or choose in
+    out = args["out"]
+    io._clear()
+    bpy.ops.mesh.primitive_cube_add()
+    io._export(out + "/mesh_only.glb", "glb")
+    io._clear()
+    io._import(args["path"])
+    arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+    arm.animation_data.action = None
+    for a in list(bpy.data.actions):
+        bpy.data.actions.remove(a)
+    bpy.ops.export_scene.fbx(filepath=out + "/still.fbx", add_leaf_bones=False, bake_anim=False)
+    io._clear()
+    io._import(args["path"])
+    io._import(args["path"])
+    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 60
+    bpy.ops.export_scene.fbx(filepath=out + "/two.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
+                             bake_anim_use_all_actions=False)
+    print("RESULT" + json.dumps({"ok": True}))
+    sys.exit(0)
 arm, act, *_ = io._load(args["path"], None, None)
 if args["op"] == "skin":  # a box per bone, weighted to the bone and (top half) shared with its parent
     verts, faces, owners = [], [], []
@@ -240,3 +260,35 @@ def test_without_blender_one_line_names_the_file_and_both_routes(tmp_path, monke
     line = next(ln for ln in err.splitlines() if "walk.fbx" in ln)
     assert "video2style[fbx]" in line and "apt install blender" in line
     assert not list((tmp_path / "out").glob("walk*"))
+
+
+@needs_blender
+def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_path, converter, capsys):
+    from video2style.cli import main
+
+    fbx = converter.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
+    odd = tmp_path / "odd"
+    odd.mkdir()
+    run_script("odd", fbx, out=str(odd))
+    for name, said in (("mesh_only.glb", "no armature"), ("still.fbx", "has no animation"),
+                       ("two.fbx", "--armature")):
+        assert main(["skeleton", str(odd / name)]) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(odd / name) in err[0] and said in err[0], err
+    assert main(["skeleton", str(odd / "two.fbx"), "--armature", "Armature.001"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"{odd / 'two.fbx'}: ") and "mixamorig:LeftArm" in out
+
+
+@needs_blender
+def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
+    from video2style.cli import main
+
+    bvh = corpus_bvh(tmp_path / "src", "ue5", seconds=3.0)
+    glb = converter.write(bvh, tmp_path / "src" / "walk.glb")
+    fbx = converter.write(bvh, tmp_path / "src" / "walk.fbx")
+    assert main(["preview", str(glb), str(fbx), "-o", str(tmp_path / "ab.mp4")]) == 0
+    assert (tmp_path / "ab.mp4").stat().st_size > 1000
+    assert main(["learn", str(fbx), "-o", str(tmp_path / "s.v2s"), "--iterations", "2", "--allow-partial",
+                 "--text", "a person walks"]) == 0
+    assert (tmp_path / "s.v2s").is_file()

@@ -168,7 +168,10 @@ def cmd_preview(args) -> None:
     check_outputs([("-o", args.output)], [("the input clip", c) for c in args.clips] + [("the --joint-map", args.joint_map)])
     if args.output.suffix.lower() != ".mp4":
         raise CliError(f"{args.output}: previews are .mp4 videos; give -o NAME.mp4")
-    out = preview_bvh_files(args.clips, args.output, canonical=args.canonical, joint_map=joint_map,
+    from video2style.interchange import as_bvh
+
+    clips = [as_bvh(args, c) for c in args.clips]  # an FBX/glTF clip: its action as BVH (one Blender for all)
+    out = preview_bvh_files(clips, args.output, canonical=args.canonical, joint_map=joint_map,
                             notify=lambda s: print(s, file=sys.stderr))
     print(f"wrote {out}")
 
@@ -190,8 +193,12 @@ def cmd_skeleton(args) -> None:
     check_outputs([("--write-map", args.write_map), ("--preview", args.preview)],
                   [("the input clip", args.file), ("the --joint-map", args.joint_map)])
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    from video2style.interchange import as_bvh
+
+    source, args.file = args.file, as_bvh(args, args.file)  # an FBX/glTF clip: its armature as BVH
     try:
         rep = inspect_skeleton(args.file, joint_map)
+        rep.path = source
     except RetargetError:
         if args.write_map and args.joint_map is None:  # a template to fill in
             names = write_template(args.file, args.write_map)
@@ -281,6 +288,7 @@ def cmd_learn(args) -> None:
 
     from motioncore.retarget import load_joint_map
     from transfer.style import StyleConfig
+    from video2style.interchange import as_bvh
     from video2style.pipeline import learn_file
 
     config = StyleConfig()
@@ -294,6 +302,7 @@ def cmd_learn(args) -> None:
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
+    args.input = as_bvh(args, args.input)  # an FBX/glTF clip: its action as BVH
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
                          span=(args.start, args.end), show_bar=True, device=args.device, rotate=args.rotate)
     if summary["partial"]:
@@ -617,12 +626,15 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     d.set_defaults(func=cmd_dataset)
 
+    from video2style.interchange import add_arguments as add_clip_format_arguments
+
     v = sub.add_parser("preview", help="render BVH clips side by side to an mp4",
                        epilog="example: video2style preview a.bvh b.bvh --canonical -o ab.mp4")
     v.add_argument("clips", nargs="+", type=Path, help="BVH files, drawn side by side")
     v.add_argument("-o", "--output", type=Path, required=True, help="output .mp4")
     v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
     v.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
+    add_clip_format_arguments(v)
     v.set_defaults(func=cmd_preview)
 
     mo = sub.add_parser("models", help="get the pose models a video needs (one time; shows what is fetched)",
@@ -650,6 +662,7 @@ def build_parser() -> argparse.ArgumentParser:
     sk.add_argument("--write-map", type=Path, metavar="MAP.json", help="write the mapping as an editable joint map")
     sk.add_argument("--preview", type=Path, metavar="IMAGE.png", help="draw the pose read with the roles coloured")
     sk.add_argument("--joint-map", type=Path, metavar="MAP.json", help="your map: overrides the roles it names")
+    add_clip_format_arguments(sk)
     sk.set_defaults(func=cmd_skeleton)
 
     lr = sub.add_parser("learn", help="learn a style from a video or a BVH clip",
@@ -676,6 +689,7 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     _add_rotate(lr)
     _add_device(lr)
+    add_clip_format_arguments(lr)
     lr.set_defaults(func=cmd_learn)
 
     ap = sub.add_parser("apply", help="apply a learned style (or Park et al.'s ST-GCN stylizer) to BVH clips",
@@ -707,8 +721,6 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
     ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
     ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
-    from video2style.interchange import add_arguments as add_clip_format_arguments
-
     add_clip_format_arguments(ap, formats=True)
     _add_device(ap)
     ap.set_defaults(func=cmd_apply)
