@@ -292,3 +292,26 @@ def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
     assert main(["learn", str(fbx), "-o", str(tmp_path / "s.v2s"), "--iterations", "2", "--allow-partial",
                  "--text", "a person walks"]) == 0
     assert (tmp_path / "s.v2s").is_file()
+
+
+@needs_blender
+def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monkeypatch):
+    import shutil
+
+    from video2style import batch
+
+    style = zero_style(tmp_path)
+    monkeypatch.setattr("video2style.pipeline.learn_file",
+                        lambda video, out, **kw: (out.parent.mkdir(parents=True, exist_ok=True), shutil.copy(style, out)))
+    videos, content = tmp_path / "videos", tmp_path / "content"
+    videos.mkdir()
+    (videos / "v.mp4").write_bytes(b"not read by the fake learner")
+    converter.write(corpus_bvh(tmp_path / "src", "rigify"), content / "sub" / "walk.fbx")
+    shutil.copy(tmp_path / "src" / "walk.bvh", content / "plain.bvh")
+    report = batch.run_batch(videos, content, tmp_path / "out", progress=lambda s: None)
+    assert [r["status"] for r in report.rows] == ["done", "done"], report.rows
+    assert (tmp_path / "out" / "v" / "sub" / "walk.fbx").is_file() and (tmp_path / "out" / "v" / "plain.bvh").is_file()
+    assert not (tmp_path / "out" / "v" / "sub" / "walk.bvh").exists()
+    assert worst_gap(tmp_path / "out" / "v" / "plain.bvh", converter.to_bvh(tmp_path / "out" / "v" / "sub" / "walk.fbx")) < 1e-3
+    again = batch.run_batch(videos, content, tmp_path / "out", progress=lambda s: None)
+    assert [r["status"] for r in again.rows] == ["skipped (done)"] * 2

@@ -112,9 +112,11 @@ def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
     keys = video_keys(videos)
     if out_dir is not None:
         check_batch_outputs(videos_dir, content_dir, out_dir, list(keys.values()))
-    clips = content_clips(content_dir, out_dir, progress)
+    from video2style.interchange import find_clip_files
+
+    clips = sorted(content_clips(content_dir, out_dir, progress) + find_clip_files(content_dir, out_dir))
     if not clips:
-        raise FileNotFoundError(f"{content_dir}: no .bvh clips")
+        raise FileNotFoundError(f"{content_dir}: no .bvh clips (nor .fbx, .glb, .gltf)")
     return videos, clips, keys
 
 
@@ -217,9 +219,13 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
                retries: int = 0) -> dict:
     """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide): skipped
     when its BVH and preview exist, else applied (tried ``retries`` more times on an error). The report row."""
+    from video2style.interchange import in_format, is_clip_file, shared_converter
     from video2style.pipeline import apply_file
 
-    out_bvh, preview = where / f"{clip.stem}.bvh", where / f"{clip.stem}_preview.mp4"
+    # an FBX/glTF clip's result: the same format, keyed onto its own file (one Blender per batch process)
+    run = in_format(lambda path, folder: apply_file(style, model, path, folder, strength, seed), shared_converter)
+    out_bvh = where / f"{clip.stem}{clip.suffix.lower() if is_clip_file(clip) else '.bvh'}"
+    preview = where / f"{clip.stem}_preview.mp4"
     player = where / f"{clip.stem}_player.js"
     row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "output": str(out_bvh),
            "preview": str(preview), "player": str(player) if player.is_file() else ""}
@@ -228,7 +234,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
     t0, error = time.time(), None
     for attempt in range(1, retries + 2):
         try:
-            info = apply_file(style, model, clip, where, strength, seed)
+            info = run(clip, where)
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
             error = str(e)
             continue

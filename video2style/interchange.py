@@ -299,16 +299,31 @@ def as_bvh(args, path: str | os.PathLike | None):
     return converter_for(args).to_bvh(path)
 
 
+_SHARED: list[Converter] = []
+
+
+def shared_converter() -> Converter:
+    """One :class:`Converter` for this process (a batch, or one Ray worker): its Blender starts with the first
+    FBX/glTF clip and ends with the process."""
+    if not _SHARED:
+        _SHARED.append(Converter())
+    return _SHARED[0]
+
+
 def in_formats(args, run_item):
     """``run_item(clip, folder) -> info`` (BVH in, BVH results named in ``info["output"]``) made to take
     FBX/glTF clips and to give each result in ``args.format`` (default: the clip's own format)."""
-    fmt = getattr(args, "format", None)
+    return in_format(run_item, lambda: converter_for(args), getattr(args, "format", None))
+
+
+def in_format(run_item, converter, fmt: str | None = None):
+    """:func:`in_formats` with ``converter()`` giving the :class:`Converter` (asked only for FBX/glTF work)."""
 
     def run(path, where):
         suffix = output_suffix(path, fmt) if (is_clip_file(path) or fmt) else ".bvh"
         if not is_clip_file(path) and suffix == ".bvh":
             return run_item(path, where)
-        conv = converter_for(args)
+        conv = converter()
         info = run_item(conv.to_bvh(path), where)
         info["input"] = str(path)
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
