@@ -260,8 +260,9 @@ def _arrangement(g: _Geometry, pairs: list[_Pair]) -> tuple[_Pair, _Pair]:
     where = ", ".join(sorted({name(p.parent) for p in pairs}))
     if seen is not None:
         p, q = seen
-        raise NotHumanoidError(f"cannot tell the legs from the arms (Hips or Chest?): the limbs at {name(p.parent)} "
-                               f"point toward those at {name(q.parent)}, not away from them, in the {g.pose}")
+        raise NotHumanoidError(f"cannot tell the legs from the arms: the limbs at {name(p.parent)} point toward "
+                               f"those at {name(q.parent)}, not away from them, in the {g.pose}: Hips and legs, "
+                               "Chest and arms not found")
     if len({p.parent for p in pairs}) == 1:
         raise NotHumanoidError(f"found one pair of limbs (at {where}); a humanoid has two, legs below a spine that "
                                "carries arms: Hips, Chest or the arm or leg roles not found")

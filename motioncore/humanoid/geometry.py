@@ -6,7 +6,6 @@ from the former wherever it can.
 """
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import torch
@@ -29,18 +28,22 @@ class _Geometry:
         self.pos = rest_positions(sk.offsets.double(), sk.parents) if pos is None else pos.double()
         self.sites = {j: (e.double() if grot is None else quat.mul_vec(grot[j].double(), e.double()))
                       for j, e in sk.end_sites.items() if 0 <= j < sk.num_joints}
-        self.children = [sk.children(j) for j in range(sk.num_joints)]
+        self.children: list[list[int]] = [[] for _ in range(sk.num_joints)]
+        for j in range(1, sk.num_joints):
+            self.children[sk.parents[j]].append(j)
         self.subtree: list[list[int]] = [[j] for j in range(sk.num_joints)]
         for j in reversed(range(1, sk.num_joints)):
             self.subtree[sk.parents[j]].extend(self.subtree[j])
+        parents = [max(p, 0) for p in sk.parents]
+        bones = (self.pos - self.pos[parents]).norm(dim=-1).tolist()
+        rest_bones = sk.offsets.double().norm(dim=-1).tolist()
         self.depth = [0.0] * sk.num_joints  # length along the bones from the root, in this pose
         rest_depth = [0.0] * sk.num_joints
         for j in range(1, sk.num_joints):
-            p = sk.parents[j]
-            self.depth[j] = self.depth[p] + float((self.pos[j] - self.pos[p]).norm())
-            rest_depth[j] = rest_depth[p] + float(sk.offsets[j].norm())
-        longest = max(rest_depth[j] + (float(self.sites[j].norm()) if j in self.sites else 0.0)
-                      for j in range(sk.num_joints))
+            self.depth[j] = self.depth[sk.parents[j]] + bones[j]
+            rest_depth[j] = rest_depth[sk.parents[j]] + rest_bones[j]
+        self.site_len = {j: float(e.norm()) for j, e in self.sites.items()}
+        longest = max(rest_depth[j] + self.site_len.get(j, 0.0) for j in range(sk.num_joints))
         self.eps = 0.004 * (longest or 1.0)  # joints closer than this coincide (the same in every pose)
         self.size = 250 * self.eps  # a first guess of the figure's size; the legs' length sets it once known
 
@@ -66,7 +69,7 @@ class _Geometry:
 
     def tip_depth(self, j: int) -> float:
         """Length along the bones from the root to the end of ``j``: its End Site's tip, else the joint."""
-        return self.depth[j] + (float(self.sites[j].norm()) if j in self.sites else 0.0)
+        return self.depth[j] + self.site_len.get(j, 0.0)
 
     def along(self, a: int, b: int | None) -> float:
         """Length along the bones from joint ``a`` down to joint ``b`` (None: to ``a``'s End Site tip)."""
@@ -76,7 +79,7 @@ class _Geometry:
         """The joint of ``child``'s subtree owning the point that maximises ``key(point)``; by default the
         point farthest along the bones (the longest finger's tip, whatever the pose)."""
         if key is None:
-            cands = [(self.depth[j] + (float(self.sites[j].norm()) if k else 0.0), j, p)
+            cands = [(self.depth[j] + (self.site_len[j] if k else 0.0), j, p)
                      for j in self.subtree[child] for k, p in enumerate(self.points(j))]
         else:
             cands = [(key(p), j, p) for j in self.subtree[child] for p in self.points(j)]
@@ -89,9 +92,8 @@ class _Geometry:
         return self.path(top, end), tip
 
     def bone_lengths(self, top: int, chain: list[int], tip: torch.Tensor) -> list[float]:
-        pts = [self.pos[top]] + [self.pos[j] for j in chain] + [tip]
-        lengths = [float((b - a).norm()) for a, b in itertools.pairwise(pts)]
-        return [x for x in lengths if x > self.eps]
+        pts = torch.cat([self.pos[[top] + chain], tip[None]])
+        return [x for x in (pts[1:] - pts[:-1]).norm(dim=-1).tolist() if x > self.eps]
 
 
 @dataclass
@@ -112,15 +114,17 @@ def _limb_pairs(g: _Geometry) -> list[_Pair]:
         if len(kids) < 2:
             continue
         size = max(g.tip_depth(j) for j in g.subtree[h]) - g.depth[h]
-        for i, a in enumerate(kids):
+        limbs = {}
+        for a in kids:
             ca, ta = g.chain(h, a)
-            la = g.bone_lengths(h, ca, ta)
+            limbs[a] = (ta, g.bone_lengths(h, ca, ta))
+        for i, a in enumerate(kids):
+            ta, la = limbs[a]
             length = sum(la)
             if length < 0.25 * size or len(la) < 3:
                 continue
             for b in kids[i + 1:]:
-                cb, tb = g.chain(h, b)
-                lb = g.bone_lengths(h, cb, tb)
+                tb, lb = limbs[b]
                 n = min(len(la), len(lb))
                 if n >= 3 and abs(len(la) - len(lb)) <= 2 and \
                         all(abs(x - y) <= 0.12 * max(x, y) + 2 * g.eps for x, y in zip(la[:n], lb[:n])):
