@@ -246,3 +246,16 @@ def test_a_result_folder_planted_as_a_symlink_is_refused(tmp_path, fake):
     with pytest.raises(ValueError, match="symbolic link"):
         batch.run_batch(videos, content, out, progress=lambda s: None)
     assert (elsewhere / "run.bvh").read_text() == "the user's clip" and fake["learn"] == []
+
+
+def test_links_planted_at_the_index_and_report_are_replaced_not_written_through(tmp_path, fake):
+    videos, content = _library(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    victims = {name: tmp_path / f"victim_{name}" for name in ("index.html", "report.json")}
+    for name, victim in victims.items():
+        victim.write_text("the user's file")
+        (out / name).symlink_to(victim)
+    batch.run_batch(videos, content, out, progress=lambda s: None)
+    for name, victim in victims.items():  # the rename replaces the link itself
+        assert victim.read_text() == "the user's file" and not (out / name).is_symlink()
