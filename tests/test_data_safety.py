@@ -259,3 +259,22 @@ def test_links_planted_at_the_index_and_report_are_replaced_not_written_through(
     batch.run_batch(videos, content, out, progress=lambda s: None)
     for name, victim in victims.items():  # the rename replaces the link itself
         assert victim.read_text() == "the user's file" and not (out / name).is_symlink()
+
+
+def test_the_users_clips_in_an_output_folder_inside_the_input_are_not_overwritten(tmp_path, monkeypatch, fake, capsys):
+    _fake_apply(monkeypatch)
+    lib = tmp_path / "lib"
+    _clip(lib / "walk.bvh")
+    _clip(lib / "sub" / "walk.bvh")  # the user's, in what -o names: left out as content, yet never overwritten
+    (tmp_path / "s.v2s").write_text("s")
+    before = _snapshot(tmp_path)
+    assert main(["apply", str(tmp_path / "s.v2s"), str(lib), "-o", str(lib / "sub")]) == 1
+    assert "is a clip in the input folder" in capsys.readouterr().err and _snapshot(tmp_path) == before
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "old.mp4").write_bytes(b"video")
+    _clip(lib / "res" / "old" / "walk.bvh")  # where the batch would put lib/walk.bvh's result for old.mp4
+    before = _snapshot(tmp_path)
+    with pytest.raises(ValueError, match="is a clip in the --content folder"):
+        batch.run_batch(videos, lib, lib / "res", progress=lambda s: None)
+    assert _snapshot(tmp_path) == before and fake["learn"] == []

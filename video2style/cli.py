@@ -318,11 +318,11 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
     ``(what, path)`` of the other files read)."""
     from video2style.pipeline import content_clips
 
-    files = []
+    files, protected = [], []
     for p in paths:
         if p.is_dir():
             files += [(q, out_dir / q.relative_to(p).parent)
-                      for q in content_clips(p, out_dir, lambda s: print(s, file=sys.stderr))]
+                      for q in content_clips(p, out_dir, lambda s: print(s, file=sys.stderr), protected=protected)]
         else:
             files.append((p, out_dir))
     from video2style.interchange import find_clip_files
@@ -341,7 +341,8 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
     folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
     check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
-                                                                     for clip, _ in files] + list(others))
+                                                                     for clip, _ in files] + list(others)
+                  + [("a clip in the input folder", clip) for clip in protected])
     return files
 
 

@@ -107,18 +107,23 @@ def find_bvh_files(folder: Path, recursive: bool = True) -> list[Path]:
     return sorted(p for p in found if p.suffix.lower() == BVH_SUFFIX and p.is_file())
 
 
-def content_clips(folder: Path, out_dir: Path | None = None, notify=None) -> list[Path]:
+def content_clips(folder: Path, out_dir: Path | None = None, notify=None, *, protected: list | None = None) -> list[Path]:
     """:func:`find_bvh_files` in ``folder`` less results, which are never read back as content: the output folder
     ``out_dir`` where it lies inside ``folder``, and any subfolder holding a ``.video2style.lock`` (an earlier
-    batch's or apply's output folder). ``notify(line)`` hears what was left out."""
+    batch's or apply's output folder). ``notify(line)`` hears what was left out. ``protected``, a list, receives
+    the clips left out that no run of ours wrote (in ``out_dir`` before it was ever locked): the user's, so no
+    output may overwrite them (:func:`video2style.paths.check_outputs`)."""
     from video2style.paths import LOCK_NAME, inside, same_path
 
     folder = Path(folder)
     clips = find_bvh_files(folder)
-    results = [lock.parent for lock in folder.rglob(LOCK_NAME) if lock.parent != folder]
+    marked = [lock.parent for lock in folder.rglob(LOCK_NAME) if lock.parent != folder]
+    results = list(marked)
     if out_dir is not None and inside(out_dir, folder) and not same_path(out_dir, folder):
         results.append(Path(out_dir))
     kept = [c for c in clips if not any(inside(c, r) for r in results)]
+    if protected is not None:
+        protected += [c for c in clips if c not in kept and not any(inside(c, r) for r in marked)]
     if len(kept) < len(clips) and notify is not None:
         notify(f"{folder}: left out {len(clips) - len(kept)} clip(s) in output folders "
                f"({', '.join(sorted({str(r) for r in results}))}): results are not read back as content")
