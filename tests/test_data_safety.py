@@ -245,7 +245,27 @@ def test_a_result_folder_planted_as_a_symlink_is_refused(tmp_path, fake):
     (out / "strut").symlink_to(elsewhere)
     with pytest.raises(ValueError, match="symbolic link"):
         batch.run_batch(videos, content, out, progress=lambda s: None)
+    (out / "strut").unlink()
+    (out / "strut").mkdir()
+    (out / "strut" / "a").symlink_to(elsewhere)  # deeper: where content/a/walk.bvh's result goes
+    with pytest.raises(ValueError, match="strut/a: is a symbolic link inside -o"):
+        batch.run_batch(videos, content, out, progress=lambda s: None)
     assert (elsewhere / "run.bvh").read_text() == "the user's clip" and fake["learn"] == []
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["run.bvh"]
+
+
+def test_apply_does_not_write_through_a_link_planted_in_its_output_folder(tmp_path, monkeypatch, capsys):
+    _fake_apply(monkeypatch)
+    lib, out, elsewhere = tmp_path / "lib", tmp_path / "out", tmp_path / "elsewhere"
+    _clip(lib / "sub" / "walk.bvh")
+    elsewhere.mkdir()
+    (elsewhere / "walk.bvh").write_text("the user's clip")
+    out.mkdir()
+    (out / "sub").symlink_to(elsewhere)
+    (tmp_path / "s.v2s").write_text("s")
+    assert main(["apply", str(tmp_path / "s.v2s"), str(lib), "-o", str(out)]) == 1
+    assert "is a symbolic link inside -o" in capsys.readouterr().err
+    assert [p.name for p in elsewhere.iterdir()] == ["walk.bvh"] and (elsewhere / "walk.bvh").read_text() == "the user's clip"
 
 
 def test_links_planted_at_the_index_and_report_are_replaced_not_written_through(tmp_path, fake):

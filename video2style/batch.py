@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from motioncore.files import atomic_write_text, is_temp_name
-from video2style.paths import LOCK_NAME, check_outputs, inside
+from video2style.paths import LOCK_NAME, check_no_links, check_outputs, inside
 from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
 
@@ -118,6 +118,8 @@ def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
     clips = sorted(content_clips(content_dir, out_dir, progress, protected=protected) + find_clip_files(content_dir, out_dir))
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips (nor .fbx, .glb, .gltf)")
+    if out_dir is not None:  # and no folder a result goes to is reached through a link planted in -o
+        check_no_links(out_dir, {out_dir / key / c.relative_to(content_dir).parent for key in keys.values() for c in clips})
     if protected:  # the user's clips inside -o: no result may land on one
         check_outputs([("-o", out_dir / key / c.relative_to(content_dir).parent / f"{c.stem}{end}") for key in keys.values()
                        for c in clips for end in (".bvh", "_preview.mp4", "_player.js")],
@@ -131,11 +133,9 @@ def check_batch_outputs(videos_dir: Path, content_dir: Path, out_dir: Path, keys
     a result folder that is a symlink (someone sharing OUT could point it at the user's files)."""
     out_dir = Path(out_dir)
     check_outputs([("-o", out_dir)], [("the --content folder", content_dir)])
+    check_no_links(out_dir, [out_dir / sub for sub in ["styles", *keys]])
     for sub in ["styles", *keys]:
         where = out_dir / sub
-        if where.is_symlink():
-            raise ValueError(f"{where}: is a symbolic link; results are not written through links in -o "
-                             "(remove it if you did not make it)")
         for what, folder in (("--content", content_dir), ("videos", videos_dir)):
             if inside(folder, where):
                 raise ValueError(f"{where}: -o would write results into the {what} folder {folder} "

@@ -8,7 +8,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from video2style.paths import check_outputs
+from video2style.paths import check_no_links, check_outputs
 
 EXAMPLES = """examples:
   video2style demo                                   # everything on the bundled samples
@@ -343,6 +343,7 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
                                                                      for clip, _ in files] + list(others)
                   + [("a clip in the input folder", clip) for clip in protected])
+    check_no_links(out_dir, dict.fromkeys(where for _, where in files))
     return files
 
 

@@ -81,3 +81,22 @@ def check_outputs(outputs, inputs) -> None:
                 raise ValueError(f"{path}: {what} and {option} name the same file; give each its own")
         for key in keys:
             seen.setdefault(key, ("out", option, path))
+
+
+def check_no_links(root: str | os.PathLike, folders, option: str = "-o") -> None:
+    """Refuse, in one line, a folder the run would write into below ``root`` (``root`` itself is the user's choice)
+    that is reached through a symbolic link: someone who can write to a shared ``root`` could point it at the
+    user's own files, and results would replace them there."""
+    root = Path(root)
+    for folder in folders:
+        folder = Path(folder)
+        try:
+            rel = folder.relative_to(root)
+        except ValueError:
+            continue
+        here = root
+        for part in rel.parts:
+            here = here / part
+            if here.is_symlink():
+                raise ValueError(f"{here}: is a symbolic link inside {option} {root}; results are not written "
+                                 "through links there (remove it if you did not make it)")
