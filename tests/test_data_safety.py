@@ -298,3 +298,20 @@ def test_the_users_clips_in_an_output_folder_inside_the_input_are_not_overwritte
     with pytest.raises(ValueError, match="is a clip in the --content folder"):
         batch.run_batch(videos, lib, lib / "res", progress=lambda s: None)
     assert _snapshot(tmp_path) == before and fake["learn"] == []
+
+
+def test_runs_into_nested_folders_do_not_interleave(tmp_path, monkeypatch, fake, capsys):
+    _fake_apply(monkeypatch)
+    clip, out = _clip(tmp_path / "in" / "walk.bvh"), tmp_path / "out"
+    (tmp_path / "s.v2s").write_text("s")
+    with batch.folder_lock(out, "batch"):  # a batch writing OUT: an apply into OUT/sub is refused
+        assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(out / "sub")]) == 1
+    assert f"{out / 'sub'}: another batch is writing in {out}" in capsys.readouterr().err
+    assert not (out / "sub" / "walk.bvh").exists()
+    with batch.folder_lock(out / "old", "apply"):  # an apply writing OUT/old: a batch into OUT is refused before its sweep
+        stale = temp_beside(out / "old" / "walk.bvh")  # the apply's file in progress
+        videos, content = _library(tmp_path)
+        with pytest.raises(RuntimeError, match="another apply is writing in"):
+            batch.run_batch(videos, content, out, progress=lambda s: None)
+        assert stale.exists() and fake["learn"] == []
+        assert main(["apply", str(tmp_path / "s.v2s"), str(tmp_path / "in"), "-o", str(out)]) == 0  # elsewhere in OUT: fine

@@ -75,10 +75,35 @@ def _open_lock(path: Path) -> int:
     return fd
 
 
+def _held(folder: Path) -> str | None:
+    """``"pid N apply"`` when another run holds ``folder``'s lock now, else None (no lock file, or a link: not ours)."""
+    try:
+        fd = os.open(folder / LOCK_NAME, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK)
+    except OSError:
+        return None
+    with os.fdopen(fd) as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return " ".join(f.read(200).split()) or "another process"
+        fcntl.flock(f, fcntl.LOCK_UN)
+    return None
+
+
+def _busy_error(out_dir: Path, where: Path, who: str) -> RuntimeError:
+    words = who.split()
+    held_by = words[2] if len(words) > 2 else "run"
+    here = "here" if where == out_dir else f"in {where}"
+    return RuntimeError(f"{out_dir}: another {held_by} is writing {here} ({' '.join(words[:2])}); "
+                        "wait for it or use another -o")
+
+
 @contextmanager
-def folder_lock(out_dir: Path, command: str = "batch"):
+def folder_lock(out_dir: Path, command: str = "batch", writes_into=()):
     """Hold ``out_dir/.video2style.lock`` for one run at a time (``command``: batch or apply, said to a second run,
-    which gets one line). The lock file is never followed through a symlink (:func:`_open_lock`)."""
+    which gets one line). The lock file is never followed through a symlink (:func:`_open_lock`). A run into a
+    folder above (holding ``out_dir``) or below (one of ``writes_into``, the folders this run writes below
+    ``out_dir``) is refused the same way: each run takes its own lock first, then looks at the others'."""
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / LOCK_NAME
     fd = _open_lock(path)
@@ -87,15 +112,17 @@ def folder_lock(out_dir: Path, command: str = "batch"):
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             f.seek(0)
-            who = f.read(200).strip() or "another process"
-            held_by = who.split()[2] if len(who.split()) > 2 else "run"
-            raise RuntimeError(f"{out_dir}: another {held_by} is writing here ({' '.join(who.split()[:2])}); "
-                               "wait for it or use another -o") from None
-        f.seek(0)
-        f.truncate()
-        f.write(f"pid {os.getpid()} {command}")
-        f.flush()
+            raise _busy_error(out_dir, out_dir, f.read(200).strip() or "another process") from None
         try:
+            below = {q for w in writes_into for q in [Path(w), *Path(w).parents] if out_dir in q.parents}
+            for other in [*Path(os.path.realpath(out_dir)).parents, *sorted(below)]:
+                who = _held(other)
+                if who is not None:
+                    raise _busy_error(out_dir, other, who)
+            f.seek(0)
+            f.truncate()
+            f.write(f"pid {os.getpid()} {command}")
+            f.flush()
             yield
         finally:
             fcntl.flock(f, fcntl.LOCK_UN)
@@ -146,7 +173,8 @@ def check_batch_outputs(videos_dir: Path, content_dir: Path, out_dir: Path, keys
 def batch_folder(out_dir: Path, progress):
     """Hold the output folder's lock (:func:`folder_lock`); temporary files of killed runs are swept on entry and on
     leaving."""
-    with folder_lock(out_dir, "batch"):
+    nested = [lock.parent for lock in out_dir.rglob(LOCK_NAME) if lock.parent != out_dir] if out_dir.is_dir() else []
+    with folder_lock(out_dir, "batch", nested):  # the sweep below must not meet another run's files in progress
         stale = sweep_temp_files(out_dir)
         if stale and progress is not None:
             progress(f"removed {stale} temporary file(s) left by an interrupted run")

@@ -360,7 +360,7 @@ def cmd_apply(args) -> None:
     from video2style.interchange import in_formats
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
-    with folder_lock(args.output, "apply"):  # two runs into one folder would mix their outputs
+    with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
         failed = _apply_all(run_item, files)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
