@@ -85,14 +85,24 @@ def _held(folder: Path) -> str | None:
         try:
             fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except BlockingIOError:
-            return " ".join(f.read(200).split()) or "another process"
+            return _holder(f)
+        except OSError:  # not a file flock works on: not a lock of ours
+            return None
         fcntl.flock(f, fcntl.LOCK_UN)
     return None
 
 
+def _holder(f) -> str:
+    """The holder's line from an open lock file (``pid N batch``), printable characters only: a shared folder's
+    lock file is anyone's to write."""
+    f.seek(0)
+    text = "".join(ch for ch in f.read(200) if ch.isprintable())
+    return " ".join(text.split()) or "another process"
+
+
 def _busy_error(out_dir: Path, where: Path, who: str) -> RuntimeError:
     words = who.split()
-    held_by = words[2] if len(words) > 2 else "run"
+    held_by = words[2] if len(words) > 2 and words[2] in ("batch", "apply") else "run"
     here = "here" if where == out_dir else f"in {where}"
     return RuntimeError(f"{out_dir}: another {held_by} is writing {here} ({' '.join(words[:2])}); "
                         "wait for it or use another -o")
@@ -111,8 +121,7 @@ def folder_lock(out_dir: Path, command: str = "batch", writes_into=()):
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            f.seek(0)
-            raise _busy_error(out_dir, out_dir, f.read(200).strip() or "another process") from None
+            raise _busy_error(out_dir, out_dir, _holder(f)) from None
         try:
             below = {q for w in writes_into for q in [Path(w), *Path(w).parents] if out_dir in q.parents}
             for other in [*Path(os.path.realpath(out_dir)).parents, *sorted(below)]:
