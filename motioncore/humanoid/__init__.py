@@ -54,7 +54,7 @@ from motioncore.humanoid.limbs import (
     _sides,
 )
 from motioncore.humanoid.names import name_side, roles_by_convention
-from motioncore.kinematics import fk
+from motioncore.kinematics import fk, rest_positions
 from motioncore.skeleton import CANONICAL, Skeleton
 
 __all__ = [
@@ -80,9 +80,9 @@ class HumanoidMap:
 
     joints: tuple[int | None, ...]
     how: tuple[str, ...]
-    up: str  # the up axis of the pose read, e.g. "+Y" or "+Z"
-    forward: str  # the rest pose's facing axis, or "?" when the feet do not show it
-    pose: str = "rest pose"  # the pose that was read: "rest pose" or "frame N"
+    up: str  # the world's up axis, e.g. "+Y" or "+Z" (up_axis over the clip, else over the rest pose)
+    forward: str  # the facing axis of the pose read, or "?" when the feet do not show it
+    pose: str = "rest pose"  # what decided: "rest pose", "frame N" (one of those that agree) or "joint names"
 
     def joint(self, role: str) -> int | None:
         return self.joints[ROLES.index(role)]
@@ -134,7 +134,7 @@ def decide_up(skeleton: Skeleton, hips: int, head: int, lrot: torch.Tensor | Non
     pose when it stands (head above the hips along an axis, the feet below); else ``"+Y"``, the default."""
     if lrot is not None and lpos is not None and lrot.shape[0] > 0:
         return up_axis(clip_positions(skeleton, lrot, lpos)[2], hips, head)
-    pos = _Geometry(skeleton).pos
+    pos = rest_positions(skeleton.offsets.double(), skeleton.parents)
     up = pos[head] - pos[hips]
     up = up / up.norm()
     down = [pos[f] - pos[hips] for f in feet]
