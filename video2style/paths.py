@@ -30,20 +30,26 @@ def console_script() -> Path:
     return beside if beside.is_file() else Path(shutil.which("video2style") or "video2style")
 
 
-def _keys(path: Path) -> tuple:
-    """How a path is told apart: its device and inode where it exists (hard links, symlinks and every spelling of
-    one file meet there), and its real path (symlinks and ``..`` resolved) for one that does not exist yet."""
-    real = os.path.realpath(path)
+def _keys(path, dirs: dict | None = None) -> tuple:
+    """How a path is told apart: its device and inode where it exists (hard links, symlinks and every spelling of one
+    file meet there), else its real path (symlinks and ``..`` resolved): a path that does not exist yet is never an
+    existing file, and two that do not exist meet by their real paths. ``dirs`` caches the real paths of folders
+    (a library's outputs share a few)."""
     try:
         st = os.stat(path)
     except OSError:
-        return (real,)
-    return ((st.st_dev, st.st_ino), real)
+        head, name = os.path.split(os.fspath(path))
+        if dirs is None or name in ("", ".", "..") or os.path.islink(path):
+            return (os.path.realpath(path),)
+        if head not in dirs:
+            dirs[head] = os.path.realpath(head or ".")
+        return (os.path.join(dirs[head], name),)
+    return ((st.st_dev, st.st_ino),)
 
 
 def same_path(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """Whether ``a`` and ``b`` name one file or folder (``./x``, ``../d/x``, a symlink or a hard link to it)."""
-    return bool(set(_keys(Path(a))) & set(_keys(Path(b))))
+    return bool(set(_keys(a)) & set(_keys(b)))
 
 
 def inside(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
@@ -60,16 +66,15 @@ def check_outputs(outputs, inputs) -> None:
     ``inputs``: ``(what, path)`` for each file or folder it reads (e.g. ``("the input video", video)``). ``None``
     paths are left out. Paths are compared as files: by inode where they exist, else by real path. Raises a
     one-line ValueError naming the output, the option and the input."""
-    seen: dict = {}
+    seen, dirs = {}, {}
     for what, path in inputs:
         if path is not None:
-            for key in _keys(Path(path)):
-                seen.setdefault(key, ("in", what, Path(path)))
+            for key in _keys(path, dirs):
+                seen.setdefault(key, ("in", what, path))
     for option, path in outputs:
         if path is None:
             continue
-        path = Path(path)
-        keys = _keys(path)
+        keys = _keys(path, dirs)
         for key in keys:
             if key in seen:
                 side, what, other = seen[key]

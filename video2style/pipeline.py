@@ -122,8 +122,9 @@ def content_clips(folder: Path, out_dir: Path | None = None, notify=None, *, pro
     if out_dir is not None and inside(out_dir, folder) and not same_path(out_dir, folder):
         results.append(Path(out_dir))
     kept = [c for c in clips if not any(inside(c, r) for r in results)]
-    if protected is not None:
-        protected += [c for c in clips if c not in kept and not any(inside(c, r) for r in marked)]
+    if protected is not None and len(kept) < len(clips):
+        taken = set(kept)
+        protected += [c for c in clips if c not in taken and not any(inside(c, r) for r in marked)]
     if len(kept) < len(clips) and notify is not None:
         notify(f"{folder}: left out {len(clips) - len(kept)} clip(s) in output folders "
                f"({', '.join(sorted({str(r) for r in results}))}): results are not read back as content")
