@@ -7,16 +7,18 @@ line ``V2S-RESULT {json}`` on stdout (Blender prints its own chatter there too),
 
 Jobs (every path absolute; each job starts from an empty scene):
 
-* ``{"op": "read", "path": F, "bvh": B, "armature": name|null, "action": name|null}``: import F (.fbx,
-  .glb, .gltf), pick its armature and action, write that action as BVH to B in the armature's own space
-  and units (Blender's BVH exporter). Answers the armature, action, both lists, fps and frame range.
+* ``{"op": "read", "path": F, "bvh": B, "armature": name|null, "action": name|null, "blend": P|null}``:
+  import F (.fbx, .glb, .gltf), pick its armature and action, write that action as BVH to B in the
+  armature's own space and units (Blender's BVH exporter), and the imported scene to the .blend P.
+  Answers the armature, action, both lists, fps and frame range.
 * ``{"op": "write", "source": F|null, "motion": NPZ, "out": O, "format": "fbx"|"glb"|"gltf", "armature",
   "action", "up": "Y"|"Z"}``: with a source, import F again and key its armature's bones (matched by name)
   to the global joint transforms in NPZ (``names``, ``grot`` (T, J, 4) wxyz and ``gpos`` (T, J, 3) in
   armature units and axes, ``fps``, ``frame_start``), replacing the chosen action; everything else in the
   file (meshes, materials, skin weights, rest pose, roll, other bones' names) is what the importer made.
   Without a source, NPZ also carries the skeleton (``parents``, ``offsets``) and a new armature is built.
-  Then export O. Answers the frame range written.
+  With ``blend`` (the read job's .blend), that scene is opened instead of importing F again. Then export
+  O. Answers the frame range written.
 """
 import itertools
 import json
@@ -157,6 +159,9 @@ def job_read(job):
     bpy.ops.export_anim.bvh(filepath=job["bvh"], frame_start=start, frame_end=end, rotate_mode="NATIVE",
                             root_transform_only=False, global_scale=1.0)
     meshes = [o.name for o in bpy.data.objects if o.type == "MESH" and o.find_armature() == arm]
+    if job.get("blend"):  # the imported scene, for writing results back without importing the file again
+        bpy.ops.file.pack_all()  # images the importer left outside (glTF's embedded ones) go along
+        bpy.ops.wm.save_as_mainfile(filepath=job["blend"], copy=True, compress=False)
     return {"armature": arm.name, "armatures": arms, "action": act.name, "actions": acts, "notes": notes,
             "fps": _scene_fps(), "frame_start": start, "frame_end": end, "bones": len(arm.data.bones),
             "meshes": meshes}
@@ -253,9 +258,24 @@ def _key(arm, act_name, npz):
                 fc = action.fcurves.new(f'pose.bones["{b.name}"].{path}', index=c, action_group=b.name)
                 fc.keyframe_points.add(frames)
                 fc.keyframe_points.foreach_set("co", numpy.stack([xs, values[:, c]], 1).ravel())
-                fc.keyframe_points.foreach_set("interpolation", numpy.full(frames, 2, dtype=numpy.int32))  # LINEAR
+                fc.keyframe_points.foreach_set("interpolation", numpy.full(frames, 1, dtype=numpy.int32))  # LINEAR
                 fc.update()
     return action, start, start + frames - 1
+
+
+def _rest_before(action, start):
+    """Key the rest pose one frame before ``start`` and go there: Blender's FBX exporter writes the bones'
+    node transforms (what an importer takes as the rest pose when no skin carries a bind pose) from the
+    current frame; the baked animation covers ``start`` on only."""
+    rest = {"location": 0.0, "scale": 1.0, "rotation_quaternion": (1.0, 0.0, 0.0, 0.0), "rotation_euler": 0.0,
+            "rotation_axis_angle": (0.0, 0.0, 1.0, 0.0)}
+    for fc in action.fcurves:
+        value = rest[fc.data_path.rsplit(".", 1)[1]]
+        fc.keyframe_points.insert(start - 1, value[fc.array_index] if isinstance(value, tuple) else value,
+                                  options={"FAST"}).interpolation = "CONSTANT"
+    for fc in action.fcurves:
+        fc.update()
+    bpy.context.scene.frame_set(start - 1)
 
 
 def _export(out, fmt):
@@ -276,7 +296,12 @@ def _export(out, fmt):
 def job_write(job):
     npz = numpy.load(job["motion"])
     fps = float(npz["fps"])
-    if job.get("source"):
+    if job.get("source") and job.get("blend") and os.path.isfile(job["blend"]):
+        bpy.ops.wm.open_mainfile(filepath=job["blend"])
+        arm, act, _, _, _ = _choose(job["source"], job["armature"], job["action"])
+        name = act.name
+        bpy.data.actions.remove(act)
+    elif job.get("source"):
         arm, act, _, _, _ = _load(job["source"], job.get("armature"), job.get("action"))
         name = act.name
         bpy.data.actions.remove(act)  # the styled action takes its place (and its name)
@@ -290,6 +315,8 @@ def job_write(job):
     scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
     action, start, end = _key(arm, name, npz)
     scene.frame_start, scene.frame_end = start, end
+    if job["format"] == "fbx":
+        _rest_before(action, start)
     _export(job["out"], job["format"])
     return {"armature": arm.name, "action": action.name, "frame_start": start, "frame_end": end, "fps": _scene_fps()}
 

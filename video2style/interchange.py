@@ -198,7 +198,8 @@ class Converter:
         where.mkdir()
         bvh = where / f"{path.stem}.bvh"
         info = self.blender.call({"op": "read", "path": str(path.resolve()), "bvh": str(bvh), "armature": self.armature,
-                                  "action": self.action}, path)
+                                  "action": self.action, "blend": str(where / "scene.blend")}, path)
+        info["blend"] = str(where / "scene.blend")
         if self.notify is not None:
             for note in info.get("notes", []):
                 self.notify(f"note: {path}: {note}")
@@ -227,8 +228,11 @@ class Converter:
         arrays = motion_arrays(bvh)
         job = {"op": "write", "out": "", "format": fmt, "armature": self.armature, "action": self.action}
         if source is not None and is_clip_file(source):
-            read = self.info(source) or self._read[Path(source)][1]
-            job.update(source=str(Path(source).resolve()), armature=read["armature"], action=read["action"])
+            if self.info(source) is None:
+                self.to_bvh(source)
+            read = self.info(source)
+            job.update(source=str(Path(source).resolve()), armature=read["armature"], action=read["action"],
+                       blend=read["blend"])
             arrays["frame_start"] = np.array(read["frame_start"])
         else:
             job.update(source=None, up=_up_axis(bvh))

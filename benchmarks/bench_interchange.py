@@ -1,0 +1,110 @@
+"""What FBX/glTF in and out costs in a batch, beside the styling itself, and how exact the round trips are.
+
+    python -m benchmarks.bench_interchange [--clips 8] [--seconds 4] [--formats fbx glb]   # from the repository root
+
+Builds clips of the generated rig corpus (Mixamo, UE5 mannequin, Rigify conventions) as FBX and GLB with
+Blender (video2style.interchange), then in one Converter (one Blender process), as a batch does:
+Blender's start, reading each clip to BVH, and writing a result back onto the clip's own file; beside that
+the time `apply_file` takes on the same clip as `batch` calls it (a zero style: the full diffusion,
+cleanup and preview cost). Also the
+largest joint gap of BVH -> file -> BVH and of the result keyed back onto the file (mm).
+Needs Blender with numpy (or the bpy module); no data from ../shared.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+from motioncore.bvh import read_bvh, write_bvh
+from motioncore.retarget import from_canonical, make_rig
+from tests.helpers import random_motion
+from tests.rig_corpus import case
+from video2style.interchange import Converter
+
+
+def gap_mm(a: Path, b: Path) -> float:
+    ma, _ = read_bvh(a)
+    mb, _ = read_bvh(b)
+    pa, pb = ma.global_positions(), mb.global_positions()
+    idx = [mb.skeleton.names.index(n) for n in ma.skeleton.names]
+    return 1000 * float((pa - pb[:, idx]).norm(dim=-1).max())
+
+
+def zero_style(folder: Path):
+    from transfer.lora import add_lora, lora_state
+    from transfer.style import Style, style_model
+    from video2style.pipeline import load_models
+
+    model = copy.deepcopy(load_models().prior)
+    add_lora(model, rank=8)
+    path = folder / "zero.v2s"
+    Style({k: torch.zeros_like(v) for k, v in lora_state(model).items()}, {"style": "zero", "rank": 8}).save(path)
+    style = Style.load(path)
+    return style, style_model(load_models().prior, style)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--clips", type=int, default=8, help="clips per format (default: %(default)s)")
+    ap.add_argument("--seconds", type=float, default=4.0, help="length of each clip (default: %(default)s)")
+    ap.add_argument("--formats", nargs="+", default=["fbx", "glb"])
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    from video2style.pipeline import apply_file
+
+    rigs = ["mixamo", "ue5", "rigify"]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        style, model = zero_style(tmp)
+        with Converter() as maker:  # the inputs (not timed)
+            clips = {}
+            for fmt in args.formats:
+                for i in range(args.clips):
+                    rig = rigs[i % len(rigs)]
+                    c = case(rig)
+                    bvh = tmp / "src" / fmt / f"{rig}_{i}.bvh"
+                    bvh.parent.mkdir(parents=True, exist_ok=True)
+                    motion = random_motion(seconds=args.seconds, fps=30.0, seed=i, amplitude=0.3)
+                    write_bvh(bvh, from_canonical(motion, make_rig(c.skeleton)), c.layout)
+                    clips.setdefault(fmt, []).append((rig, bvh, maker.write(bvh, bvh.with_suffix(f".{fmt}"))))
+        print(f"{args.clips} clips per format of {args.seconds:g} s at 30 fps (rigs {', '.join(rigs)}), 1 torch thread")
+        print("| format | Blender start s | read clip -> BVH s (median) | apply_file s (median) | write result -> file s (median) "
+              "| conversion share of a clip | BVH->file->BVH max gap mm | result on file max gap mm |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|")
+        for fmt, items in clips.items():
+            conv = Converter()
+            reads, applies, writes, gaps, gaps_back = [], [], [], [], []
+            start = None
+            for rig, bvh, clip in items:
+                t = time.perf_counter()
+                back = conv.to_bvh(clip)
+                dt = time.perf_counter() - t
+                if start is None:  # the first read includes Blender's start: measured apart below
+                    start = dt
+                else:
+                    reads.append(dt)
+                gaps.append(gap_mm(bvh, back))
+                out = tmp / "out" / fmt / rig
+                t = time.perf_counter()
+                info = apply_file(style, model, back, out, 0.5, 0)  # as batch runs it: preview included
+                applies.append(time.perf_counter() - t)
+                t = time.perf_counter()
+                written = conv.write(info["output"], Path(info["output"]).with_suffix(f".{fmt}"), source=clip)
+                writes.append(time.perf_counter() - t)
+                gaps_back.append(gap_mm(Path(info["output"]), conv.to_bvh(written)))
+            conv.close()
+            read_med = statistics.median(reads)
+            start_only = start - read_med
+            share = (read_med + statistics.median(writes)) / (read_med + statistics.median(writes) + statistics.median(applies))
+            print(f"| {fmt} | {start_only:.2f} | {read_med:.2f} | {statistics.median(applies):.2f} | "
+                  f"{statistics.median(writes):.2f} | {100 * share:.0f} % | {max(gaps):.4f} | {max(gaps_back):.4f} |")
+
+
+if __name__ == "__main__":
+    main()
