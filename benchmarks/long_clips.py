@@ -1,8 +1,8 @@
 """Time and peak memory of ``apply`` and ``preview`` against clip length.
 
-    python benchmarks/long_clips.py STYLE.v2s [--frames 1000 10000 100000 200000] [--out /tmp/long]
+    python benchmarks/long_clips.py STYLE.v2s [--frames 1000 10000 100000 200000] [--fps 30] [--out /tmp/long]
 
-Writes a 30 fps BVH of each length on a CMU-like skeleton (a walk-like synthetic motion), then runs
+Writes a 30 fps (``--fps``) BVH of each length on a CMU-like skeleton (a walk-like synthetic motion), then runs
 ``video2style apply STYLE CLIP -o OUT`` and ``video2style preview CLIP -o OUT.mp4`` each in its own
 process and prints wall time and peak resident memory (the child's ru_maxrss).
 """
@@ -66,6 +66,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("style", type=Path)
     ap.add_argument("--frames", type=int, nargs="+", default=[1000, 10000, 100000, 200000])
+    ap.add_argument("--fps", type=float, default=30.0, help="the takes' frame rate (1: a 5-hour take is 18,000 frames; "
+                    "apply resamples to 20 fps first)")
     ap.add_argument("--out", type=Path, default=Path("/tmp/long_clips"))
     ap.add_argument("--rig", default="mixamo", help="rig convention from tests/rig_corpus.py (default: %(default)s)")
     ap.add_argument("--no-preview", action="store_true")
@@ -75,15 +77,15 @@ def main() -> None:
     sk = c.skeleton if c else cmu_like_skeleton()
     layout = c.layout if c else BvhLayout.default(sk)
     rig = make_rig(sk)
-    print(f"rig {args.rig} ({sk.num_joints} joints), 30 fps; peak memory: each command's own (wait4 ru_maxrss)")
+    print(f"rig {args.rig} ({sk.num_joints} joints), {args.fps:g} fps; peak memory: each command's own (wait4 ru_maxrss)")
     print(f"{'frames':>8s} {'minutes':>8s} {'apply s':>8s} {'apply MiB':>9s} {'preview s':>9s} {'preview MiB':>11s}")
     for n in args.frames:
-        clip = args.out / f"walk_{n}.bvh"
-        write_bvh(clip, from_canonical(long_walk(n), rig), layout)
+        clip = args.out / f"walk_{n}_{args.fps:g}fps.bvh"
+        write_bvh(clip, from_canonical(long_walk(n, args.fps), rig), layout)
         sa, ma, rca = run(["video2style", "apply", str(args.style), str(clip), "-o", str(args.out / "out"), "--no-preview"])
-        row = f"{n:8d} {n / 30 / 60:8.1f} {sa:8.1f} {ma:9.0f}" + ("" if rca == 0 else f" (exit {rca})")
+        row = f"{n:8d} {n / args.fps / 60:8.1f} {sa:8.1f} {ma:9.0f}" + ("" if rca == 0 else f" (exit {rca})")
         if not args.no_preview:
-            sp, mp, rcp = run(["video2style", "preview", str(clip), "-o", str(args.out / f"walk_{n}.mp4")])
+            sp, mp, rcp = run(["video2style", "preview", str(clip), "-o", str(args.out / f"{clip.stem}.mp4")])
             row += f" {sp:9.1f} {mp:11.0f}" + ("" if rcp == 0 else f" (exit {rcp})")
         print(row, flush=True)
 

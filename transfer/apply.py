@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import torch
@@ -111,19 +112,22 @@ def neutral_caption(motion_encoder, text_encoder, x: torch.Tensor, mode: str = "
     return reading, text_encoder.encode([content_caption(reading.content)])
 
 
-def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], torch.Tensor]:
+def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], Callable[[int, int], torch.Tensor]]:
+    """``(starts, windows)``: ``windows(i, j)`` is windows ``i..j-1`` of ``x (T, D)`` as ``(j - i, L, D)``, copied
+    only when asked for (a long clip's windows are never all in memory at once)."""
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
     starts = window_starts(x.shape[0], window, overlap)
-    return starts, x.unfold(0, min(window, x.shape[0]), 1)[starts].transpose(1, 2)  # (W, L, D), views of x
+    view = x.unfold(0, min(window, x.shape[0]), 1)  # (T - L + 1, D, L), a view of x
+    return starts, lambda i, j: view[starts[i:j]].transpose(1, 2)
 
 
-def _in_batches(fn, parts: torch.Tensor, *extra: torch.Tensor) -> list[torch.Tensor]:
-    """``fn(batch, *extra_batch)`` over :data:`WINDOW_BATCH` windows at a time; one list of windows."""
-    out = []
-    for i in range(0, parts.shape[0], WINDOW_BATCH):
-        out.extend(fn(parts[i:i + WINDOW_BATCH], *(e[i:i + WINDOW_BATCH] for e in extra)))
-    return out
+def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tensor],
+                *extra: torch.Tensor) -> Iterator[torch.Tensor]:
+    """``fn(batch, *extra_batch)`` over :data:`WINDOW_BATCH` windows at a time, made as they are consumed; the
+    windows' results one by one (for :func:`transfer.windows.crossfade`, which keeps none of them)."""
+    for i in range(0, len(starts), WINDOW_BATCH):
+        yield from fn(windows(i, i + WINDOW_BATCH), *(e[i:i + WINDOW_BATCH] for e in extra))
 
 
 @torch.no_grad()
@@ -133,10 +137,10 @@ def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, conf
     Runs on the prior's device; the result is on ``x``'s."""
     device = model_device(prior)
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
-    starts, parts = _windows(x.to(device), window, overlap)
+    starts, windows = _windows(x.to(device), window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
     parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, config, gen, config.neutralize_step),
-                        parts, neutral_text.to(device).expand(len(starts), -1))
+                        starts, windows, neutral_text.to(device).expand(len(starts), -1))
     return crossfade(parts, starts, x.shape[0]).to(x.device)
 
 
@@ -150,9 +154,9 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     if neutral_text is not None and config.neutralize_step > 0:
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
-    starts, parts = _windows(x, window, overlap)
+    starts, windows = _windows(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
-    chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), parts)
+    chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), starts, windows)
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
@@ -180,8 +184,9 @@ def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: t
                        step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True) -> Motion:
     """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
     any device; the motion and ``mean``/``std`` on the CPU)."""
-    feats = encode(content)
-    out = apply_style_features(model, prior, (feats - mean) / std, config, step, seed, neutral_text) * std + mean
+    # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
+    out = apply_style_features(model, prior, (encode(content) - mean) / std, config, step, seed, neutral_text)
+    out = out.mul_(std).add_(mean)
     p0 = content.global_positions()[:1].double()
     result = decoder(config, reference=content)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
                              start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))

@@ -2,6 +2,8 @@
 import: both the diffusion method and Park et al.'s stylizer use them)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import torch
 
 
@@ -14,14 +16,17 @@ def window_starts(n: int, window: int, overlap: int) -> list[int]:
     return starts + [n - window]
 
 
-def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Tensor:
+def crossfade(chunks: Iterable[torch.Tensor], starts: list[int], n: int) -> torch.Tensor:
     """Blend overlapping windows ``(L, D)`` into ``(n, D)`` with linear ramps over the overlaps (on the windows'
-    device)."""
-    device = chunks[0].device
-    out = torch.zeros(n, chunks[0].shape[-1], device=device)
-    total = torch.zeros(n, 1, device=device)
+    device). ``chunks`` may be a generator: each window is added as it comes and not kept, so a long clip holds
+    the blend and the windows being made, not every window's result."""
+    out = total = None
     prev_end = 0  # windows come in order of their starts
     for chunk, s in zip(chunks, starts):
+        if out is None:
+            device = chunk.device
+            out = torch.zeros(n, chunk.shape[-1], device=device)
+            total = torch.zeros(n, 1, device=device)
         length = chunk.shape[0]
         w = torch.ones(length, device=device)
         if s > 0:  # ramp in over the overlap with the previous window
@@ -30,7 +35,9 @@ def crossfade(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Te
         out[s:s + length] += chunk * w[:, None]
         total[s:s + length] += w[:, None]
         prev_end = max(prev_end, s + length)
-    return out / total.clamp_min(1e-6)
+    if out is None:
+        raise ValueError(f"crossfade: expected at least one window, got none for {n} frames")
+    return out.div_(total.clamp_min_(1e-6))  # in place: no second (n, D) copy
 
 
 def typical_window(x: torch.Tensor, length: int, hop: int) -> int:

@@ -1,0 +1,75 @@
+"""Long takes keep apply's memory down (issue 25): windows are cut from the clip a batch at a time and blended
+in as they come, never all held at once. The results are the same, bit for bit, as the whole-list path
+(every window cut first, every result kept, then blended) written out here."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+import transfer.apply as apply_mod
+from motioncore.representation import FEATURES
+from tests.test_style import _trained_style, tiny_denoiser
+from transfer.scheduler import DiffusionScheduler
+from transfer.style import StyleConfig, neutralize, style_model, stylize
+from transfer.windows import crossfade, window_starts
+
+
+def blend_whole_list(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Tensor:
+    """The blend as it was before: every window's result in one list, then an out-of-place division."""
+    out, total, prev_end = torch.zeros(n, chunks[0].shape[-1]), torch.zeros(n, 1), 0
+    for chunk, s in zip(chunks, starts):
+        w = torch.ones(chunk.shape[0])
+        if s > 0:
+            ramp = max(1, prev_end - s)
+            w[:ramp] = torch.linspace(0, 1, ramp + 2)[1:-1]
+        out[s:s + chunk.shape[0]] += chunk * w[:, None]
+        total[s:s + chunk.shape[0]] += w[:, None]
+        prev_end = max(prev_end, s + chunk.shape[0])
+    return out / total.clamp_min(1e-6)
+
+
+def whole_list_apply(model, prior, x, config, step, seed, neutral_text=None, batch=2, window=80, overlap=20):
+    """apply_style_features the whole-list way: all windows copied up front, all results kept."""
+    scheduler = DiffusionScheduler(model.config.num_train_steps)
+    starts = window_starts(x.shape[0], window, overlap)
+
+    def all_windows(v):
+        return v.unfold(0, min(window, v.shape[0]), 1)[starts].transpose(1, 2)
+
+    if neutral_text is not None:
+        parts, gen, text = all_windows(x), torch.Generator().manual_seed(seed + 1), neutral_text.expand(len(starts), -1)
+        done = []
+        for i in range(0, len(starts), batch):
+            done.extend(neutralize(prior, scheduler, parts[i:i + batch], text[i:i + batch], config, gen,
+                                   config.neutralize_step))
+        x = blend_whole_list(done, starts, x.shape[0])
+    parts, gen, done = all_windows(x), torch.Generator().manual_seed(seed), []
+    for i in range(0, len(starts), batch):
+        done.extend(stylize(model, scheduler, parts[i:i + batch], config, gen, step=step, prior=prior))
+    return blend_whole_list(done, starts, x.shape[0])
+
+
+@pytest.mark.parametrize("frames", [50, 80, 401])
+@pytest.mark.parametrize("mode", ["difference", "regenerate"])
+def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):
+    monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 401 frames: 7 windows in 4 batches
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    x = torch.randn(frames, FEATURES.dim, generator=torch.Generator().manual_seed(frames))
+    config = StyleConfig(apply_mode=mode, neutralize_step=200)
+    text = torch.randn(1, 384, generator=torch.Generator().manual_seed(1))
+    for neutral in (None, text):
+        got = apply_mod.apply_style_features(model, prior, x.clone(), config, 300, 3, neutral)
+        want = whole_list_apply(model, prior, x.clone(), config, 300, 3, neutral)
+        assert torch.equal(got, want)
+
+
+def test_crossfade_takes_windows_as_they_come():
+    n, starts = 333, window_starts(333, 80, 20)
+    values = torch.randn(n, 5)
+    windows = [values[s:s + 80] * (1 + s) for s in starts]
+    assert torch.equal(crossfade(iter(windows), starts, n), blend_whole_list(windows, starts, n))
+    assert torch.equal(crossfade(windows, starts, n), blend_whole_list(windows, starts, n))
+    with pytest.raises(ValueError, match="expected at least one window"):
+        crossfade(iter([]), [], 10)
