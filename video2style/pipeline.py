@@ -237,7 +237,9 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models(device)
-    canonical, used = example_part(clip.canonical, (encode(clip.canonical) - m.mean) / m.std, span[0] or 0.0)
+    features = encode(clip.canonical).sub_(m.mean).div_(m.std)  # normalised in place: a long take's features once
+    canonical, used = example_part(clip.canonical, features, span[0] or 0.0)
+    del features
     if canonical is not clip.canonical:
         progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s of the input ({clip.canonical.duration:.0f} s read): "
                  f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
