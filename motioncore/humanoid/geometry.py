@@ -45,6 +45,7 @@ class _Geometry:
         self.site_len = {j: float(e.norm()) for j, e in self.sites.items()}
         longest = max(rest_depth[j] + self.site_len.get(j, 0.0) for j in range(sk.num_joints))
         self.eps = 0.004 * (longest or 1.0)  # joints closer than this coincide (the same in every pose)
+        self._farthest: list[int] | None = None
         self.size = 250 * self.eps  # a first guess of the figure's size; the legs' length sets it once known
 
     def extent(self, j: int) -> float:
@@ -75,20 +76,22 @@ class _Geometry:
         """Length along the bones from joint ``a`` down to joint ``b`` (None: to ``a``'s End Site tip)."""
         return (self.tip_depth(a) if b is None else self.depth[b]) - self.depth[a]
 
-    def farthest(self, origin: torch.Tensor, child: int, key=None) -> tuple[int, torch.Tensor]:
-        """The joint of ``child``'s subtree owning the point that maximises ``key(point)``; by default the
-        point farthest along the bones (the longest finger's tip, whatever the pose)."""
-        if key is None:
-            cands = [(self.depth[j] + (self.site_len[j] if k else 0.0), j, p)
-                     for j in self.subtree[child] for k, p in enumerate(self.points(j))]
-        else:
-            cands = [(key(p), j, p) for j in self.subtree[child] for p in self.points(j)]
-        best = max(cands, key=lambda t: t[0])
-        return best[1], best[2]
+    def farthest(self, child: int) -> tuple[int, torch.Tensor]:
+        """The joint of ``child``'s subtree whose end is farthest along the bones (the longest finger's tip,
+        whatever the pose), and that end: its End Site's tip, else the joint."""
+        if self._farthest is None:  # every subtree's, in one pass from the leaves up
+            best = [(self.tip_depth(j), j) for j in range(self.sk.num_joints)]
+            for j in reversed(range(1, self.sk.num_joints)):
+                p = self.sk.parents[j]
+                if best[j][0] > best[p][0]:
+                    best[p] = best[j]
+            self._farthest = [j for _, j in best]
+        end = self._farthest[child]
+        return end, self.points(end)[-1]
 
     def chain(self, top: int, child: int) -> tuple[list[int], torch.Tensor]:
         """Path from ``top`` to the farthest point of ``child``'s subtree, and that point."""
-        end, tip = self.farthest(self.pos[top], child)
+        end, tip = self.farthest(child)
         return self.path(top, end), tip
 
     def bone_lengths(self, top: int, chain: list[int], tip: torch.Tensor) -> list[float]:
