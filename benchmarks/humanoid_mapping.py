@@ -99,6 +99,8 @@ def real_posed(path: Path, every: int) -> None:
     ok, total, bad = 0, 0, []
     for f in files:
         motion, _ = read_bvh(f)
+        if not set(CANONICAL.skeleton.names) <= set(motion.skeleton.names):
+            continue  # only files whose joints carry the role names can be checked
         rig = make_rig(motion.skeleton, motion, source=str(f))
         canon = to_canonical(motion, rig)
         sk = motion.skeleton
@@ -117,7 +119,9 @@ def real_posed(path: Path, every: int) -> None:
             ok += exact
             if not exact:
                 bad.append(f"{f.name}/{pose}")
-    print(f"{path}: {ok} of {total} clips ({len(files)} files x {len(_ARM_POSES)} arm poses held the whole clip, "
+    if not total:
+        return
+    print(f"{path}: {ok} of {total} clips ({total // len(_ARM_POSES)} files x {len(_ARM_POSES)} arm poses held the whole clip, "
           f"names taken away) mapped exactly with up +Y{'; wrong: ' + ', '.join(bad[:10]) if bad else ''}")
 
 
