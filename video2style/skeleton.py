@@ -123,8 +123,8 @@ def render_roles(rep: SkeletonReport, out: str | os.PathLike, size: int = 720) -
 
     sk, rig = rep.motion.skeleton, rep.rig
     h = rig.humanoid
-    if h is not None and h.pose.startswith("frame "):
-        t = int(h.pose.split()[1])
+    if h is not None and (h.pose.startswith("frame ") or h.pose == "joint names") and rep.motion.num_frames:
+        t = int(h.pose.split()[1]) if h.pose.startswith("frame ") else 0  # names decided: the first frame
         _, gpos = fk(rep.motion.lrot[t:t + 1], rep.motion.lpos[t:t + 1], sk.parents)
         pos = gpos[0]
     else:
