@@ -1,12 +1,15 @@
 """What a long style example costs learn and apply, with and without the bounds of issue 25 (part B).
 
     python -m benchmarks.long_example [--seconds 180] [--iterations 2] [--out /tmp/long_example]
+    python -m benchmarks.long_example --choose-only --seconds 18000 --fps 1   # a 5-hour take at 1 fps
 
 learn: ``learn_file`` on a synthetic ``--seconds`` BVH (a smooth random walk, 20 fps), ``--iterations`` iterations,
 once as it is now (the most typical 20 s of the input) and once with the bound lifted (the whole input, as before);
 prints each run's seconds for the pair, the iterations and in all. apply: ``apply_file`` on a 1 s clip with a style
 whose stored example is the whole long input (a style file learned before the bound), its preview's example panel
-capped to the clip (now) and uncapped (before). Run from the repository root (it uses tests/helpers.py).
+capped to the clip (now) and uncapped (before). ``--choose-only``: a ``--seconds`` take at ``--fps`` read and its
+part chosen, as learn does before learning (time and the process's peak memory). Run from the repository root (it
+uses tests/helpers.py).
 """
 from __future__ import annotations
 
@@ -56,14 +59,37 @@ def apply(style: Style, clip: Path, out: Path, capped: bool) -> float:
         pipeline.example_motion = real
 
 
+def choose_only(seconds: float, fps: float, out: Path) -> None:
+    import resource
+
+    clip = out / "take.bvh"
+    write_bvh(clip, random_motion(seconds=seconds, fps=fps, seed=0, amplitude=0.3),
+              BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    m = pipeline.load_models()
+    t0 = time.time()
+    read = pipeline.read_clip(clip)
+    t1 = time.time()
+    part, used = pipeline.example_part(read.canonical, encode(read.canonical).sub_(m.mean).div_(m.std))
+    t2 = time.time()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"{seconds:g} s take at {fps:g} fps ({read.canonical.num_frames} frames at 20 fps): read {t1 - t0:.1f} s, "
+          f"part chosen {t2 - t1:.1f} s ({used[0]:.0f}-{used[1]:.0f} s, {part.num_frames} frames); "
+          f"peak memory {peak:.0f} MB")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=180.0)
     ap.add_argument("--iterations", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("/tmp/long_example"))
+    ap.add_argument("--choose-only", action="store_true", help="only read a take and choose its part")
+    ap.add_argument("--fps", type=float, default=20.0, help="--choose-only: the take's frame rate")
     args = ap.parse_args()
     torch.set_num_threads(2)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.choose_only:
+        choose_only(args.seconds, args.fps, args.out)
+        return
     layout = BvhLayout.default(CANONICAL.skeleton, scale=0.01)
     long_clip, short_clip = args.out / "long.bvh", args.out / "short.bvh"
     write_bvh(long_clip, random_motion(seconds=args.seconds, seed=1), layout)
