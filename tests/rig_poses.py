@@ -32,11 +32,9 @@ def _v(*xyz: float) -> torch.Tensor:
     return v / v.norm()
 
 
-def _aim(rest: torch.Tensor, target: torch.Tensor, first: torch.Tensor | None = None) -> torch.Tensor:
-    """Global rotation turning a bone that points along ``rest`` (after ``first``) to ``target``."""
-    r = rest if first is None else quat.mul_vec(first, rest)
-    q = quat.between(r, target)
-    return q if first is None else quat.mul(q, first)
+def _aim(rest: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Global rotation turning a bone that points along ``rest`` to ``target`` (the shortest turn)."""
+    return quat.between(rest, target)
 
 
 def _tilt(deg: float) -> torch.Tensor:
