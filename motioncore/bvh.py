@@ -320,6 +320,8 @@ STREAM_BYTES = 16 * 1024 * 1024  # larger files: the frame numbers are read stra
 def read_bvh(path: str | os.PathLike, units: str | float = "auto") -> tuple[Motion, BvhLayout]:
     """Read a BVH file; raises :class:`BvhError` naming the file and line on malformed input."""
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise BvhError(f"{path}: is a folder, not a BVH file")
     try:
         if os.path.getsize(path) > STREAM_BYTES:
             fast = _read_large(path, units)

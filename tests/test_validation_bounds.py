@@ -240,6 +240,9 @@ def test_a_folder_named_like_a_video_is_called_a_folder(tmp_path):
     (tmp_path / "x.mp4").mkdir()
     with pytest.raises(ValueError, match="x.mp4: is a folder, not a video file"):
         video_info(tmp_path / "x.mp4")
+    (tmp_path / "y.bvh").mkdir()
+    with pytest.raises(BvhError, match="y.bvh: is a folder, not a BVH file"):
+        read_bvh(tmp_path / "y.bvh")
 
 
 @pytest.mark.parametrize("option, value", [("--fov", "500"), ("--fov", "nan"), ("--fov", "abc"), ("--cutoff", "-1"),
