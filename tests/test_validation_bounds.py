@@ -90,6 +90,18 @@ def test_the_cli_accepts_exactly_the_schema_s_range_ends(field):
         check_config_value(field, outside)
 
 
+@pytest.mark.parametrize("option", ["--style", "--text"])
+def test_learn_refuses_a_name_longer_than_a_style_file_may_hold(tmp_path, capsys, no_learning, option):
+    from transfer.style_schema import MAX_TEXT, validate_meta
+
+    with pytest.raises(SystemExit):
+        main(["learn", str(_clip(tmp_path / "c.bvh")), option, "x" * (MAX_TEXT + 1)])
+    line = _option_error(capsys.readouterr().err)
+    assert f"argument {option}: expected at most {MAX_TEXT} characters, got {MAX_TEXT + 1}" in line and not no_learning
+    with pytest.raises(ValueError, match="style: expected a string of at most"):  # what apply would have said
+        validate_meta({"style": "x" * (MAX_TEXT + 1)})
+
+
 def test_apply_and_batch_seeds_are_checked_while_parsing(tmp_path, capsys):
     for argv in (["apply", "s.v2s", "c.bvh", "-o", str(tmp_path)], ["batch", "v", "--content", "c", "-o", str(tmp_path)]):
         with pytest.raises(SystemExit):

@@ -102,6 +102,12 @@ def validate_config(config) -> dict:
     return config
 
 
+def check_text(value: str) -> None:
+    """ValueError unless ``value`` fits a style file's string fields (``learn --style/--text`` are checked with it)."""
+    if len(value) > MAX_TEXT:
+        raise ValueError(f"expected at most {MAX_TEXT} characters, got {len(value)}")
+
+
 def validate_meta(meta) -> dict:
     """The JSON metadata of a style file, checked; returns it."""
     if not isinstance(meta, dict):

@@ -128,6 +128,17 @@ def _checked(convert, check):
     return parse
 
 
+def _style_text(v: str) -> str:
+    """``learn --style/--text``: no longer than a style file's string fields may be."""
+    from transfer.style_schema import check_text
+
+    try:
+        check_text(v)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return v
+
+
 def _fov(v: str) -> float:
     from lifting.camera import check_fov
 
@@ -675,9 +686,9 @@ def build_parser() -> argparse.ArgumentParser:
                                "a style learned in too few iterations is refused unless --allow-partial.",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...) or .bvh")
-    lr.add_argument("--style", help="a name for the style, e.g. 'old', kept in the style file; learning does not use it "
+    lr.add_argument("--style", type=_style_text, help="a name for the style, e.g. 'old', kept in the style file; learning does not use it "
                     "unless the style's config turns on lambda_s (default: from the file name)")
-    lr.add_argument("--text", help="what the person does, e.g. 'a person walks' (default: recognised)")
+    lr.add_argument("--text", type=_style_text, help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
     lr.add_argument("--iterations", type=_style_option("iterations"),
                     help=f"fine-tuning iterations: the budget, the same on any machine (default: {StyleConfig.iterations})")
