@@ -274,6 +274,19 @@ def test_a_tempo_that_is_not_a_number_names_the_option():
             resolve_tempo(Style({}, {}), bad)
 
 
+def test_apply_refuses_a_bad_tempo_before_loading_the_models(tmp_path, capsys, monkeypatch):
+    def no_models(*a, **k):
+        raise AssertionError("the models were loaded")
+
+    monkeypatch.setattr("video2style.pipeline.load_models", no_models)
+    style = tmp_path / "s.v2s"
+    Style(_trained_style(tiny_denoiser()).adapters, {"style": "s", "rank": 8}).save(style)
+    out = tmp_path / "out"
+    assert main(["apply", str(style), str(_clip(tmp_path / "c.bvh")), "-o", str(out), "--tempo", "abc"]) == 1
+    assert _one_error_line(capsys.readouterr().err).endswith("--tempo: expected off, auto or a number from 0.5 to 1.5, got abc")
+    assert not out.exists()
+
+
 @pytest.fixture
 def good_style():
     style = _trained_style(tiny_denoiser())

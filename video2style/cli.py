@@ -418,13 +418,13 @@ def _diffusion_runner(args, joint_map):
             raise CliError(f"apply: --{flag} belongs to --method stgcn")
     _check_strength(args.strength)
     style = Style.load(args.style)
+    if args.tempo not in ("off", "auto"):
+        resolve_tempo(style, args.tempo)  # a bad number: one line before any work (before the models load)
     files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
-    if args.tempo not in ("off", "auto"):
-        resolve_tempo(style, args.tempo)  # a bad number: one line before any work
     return (lambda path, where: apply_file(style, model, path, where, args.strength, args.seed, args.neutralize,
                                            joint_map, not args.no_preview, args.tempo)), files
 
