@@ -232,6 +232,11 @@ def test_learn_refuses_a_nearly_full_disk_before_learning(tmp_path, monkeypatch,
     monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 100_000, 100_000))
     assert main(["learn", str(_clip(tmp_path / "c.bvh")), "-o", str(tmp_path / "s.v2s")]) == 1
     assert "MB free on its disk" in _one_error_line(capsys.readouterr().err) and not no_learning
+    (tmp_path / "videos").mkdir()
+    (tmp_path / "videos" / "v.mp4").write_bytes(b"never read")
+    assert main(["batch", str(tmp_path / "videos"), "--content", str(tmp_path), "-o", str(tmp_path / "out")]) == 1
+    assert "MB free on its disk" in _one_error_line(capsys.readouterr().err) and not no_learning
+    assert not (tmp_path / "out").exists()
 
 
 # 5. Small things users notice.

@@ -531,6 +531,7 @@ def cmd_batch(args) -> None:
 
     _check_strength(args.strength)
     _writable(args.output, "-o", is_dir=True)
+    _free_space(args.output / "styles" / "style.v2s", STYLE_FILE_BYTES, "-o")  # room for at least one style
     if args.ray is not None:
         from video2style.batch_ray import run_batch_ray
 
