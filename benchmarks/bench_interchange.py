@@ -104,6 +104,37 @@ def main() -> None:
             share = (read_med + statistics.median(writes)) / (read_med + statistics.median(writes) + statistics.median(applies))
             print(f"| {fmt} | {start_only:.2f} | {read_med:.2f} | {statistics.median(applies):.2f} | "
                   f"{statistics.median(writes):.2f} | {100 * share:.0f} % | {max(gaps):.4f} | {max(gaps_back):.4f} |")
+    skinned()
+
+
+def skinned() -> None:
+    """A skinned character through `video2style apply` (a zero style) in its own format: what the file keeps."""
+    from tests.rig_corpus import case
+    from tests.test_interchange import corpus_bvh, run_script, twist_deg, zero_style
+    from video2style.cli import main as cli
+
+    print("\n| clip | mesh, weights, materials kept | rest pose max change | role-bone twist median / p99 / max deg "
+          "| joints max move mm (zero style, feet cleaned) |")
+    print("|---|---|---:|---:|---:|")
+    for rig, fmt in (("mixamo", "fbx"), ("ue5", "glb"), ("rigify", "fbx")):
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            bvh = corpus_bvh(tmp / "src", rig, seconds=4.0)
+            with Converter() as conv:
+                bare = conv.write(bvh, tmp / "src" / f"bare.{fmt}")
+            clip = tmp / "in" / f"walk.{fmt}"
+            clip.parent.mkdir()
+            run_script("skin", bare, out=str(clip), format=fmt)
+            assert cli(["apply", str(zero_style(tmp)), str(clip), "-o", str(tmp / "out"), "--no-preview"]) == 0
+            a, b = run_script("inspect", clip), run_script("inspect", tmp / "out" / f"walk.{fmt}")
+            rest = max(abs(x - y) for n in a["bones"] for ra, rb in zip(a["bones"][n], b["bones"][n]) for x, y in zip(ra, rb))
+            roles = {j for j in case(rig).expected.values() if j}
+            tw = sorted(twist_deg(pa[n][1], pb[n][1]) for pa, pb in zip(a["poses"], b["poses"]) for n in roles)
+            heads = torch.tensor([[pa[n][0] for n in pa] for pa in a["poses"]])
+            heads_b = torch.tensor([[pb[n][0] for n in pa] for pa, pb in zip(a["poses"], b["poses"])])
+            unit = 1000 * (0.01 if float(heads[..., 2].amax()) > 20 else 1.0)  # Blender units: cm or m
+            print(f"| {rig} {fmt} | {a['meshes'] == b['meshes']} | {rest:.1e} | {statistics.median(tw):.1f} / "
+                  f"{tw[int(0.99 * (len(tw) - 1))]:.1f} / {tw[-1]:.1f} | {unit * float((heads - heads_b).norm(dim=-1).max()):.1f} |")
 
 
 if __name__ == "__main__":

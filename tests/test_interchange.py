@@ -152,6 +152,20 @@ def positions(bvh: Path) -> tuple[list[str], torch.Tensor, float]:
     return list(m.skeleton.names), m.global_positions(), m.fps
 
 
+def worst_turn(a: Path, b: Path) -> float:
+    """Largest angle (degrees) between the global rotations of same-named joints of two BVH files: twist included."""
+    from motioncore import quat
+    from motioncore.bvh import read_bvh
+    from motioncore.kinematics import fk
+
+    ma, _ = read_bvh(a)
+    mb, _ = read_bvh(b)
+    ga = fk(ma.lrot, ma.lpos, ma.skeleton.parents)[0]
+    gb = fk(mb.lrot, mb.lpos, mb.skeleton.parents)[0][:, [mb.skeleton.names.index(n) for n in ma.skeleton.names]]
+    w = quat.mul(quat.inv(ga), gb)[..., 0].abs().clamp(max=1.0)
+    return float(torch.rad2deg(2 * torch.acos(w)).max())
+
+
 def worst_gap(a: Path, b: Path) -> float:
     """Largest distance (m) between same-named joints of two BVH files, frame for frame."""
     na, pa, fa = positions(a)
@@ -197,15 +211,19 @@ def twist_deg(qa: list[float], qb: list[float]) -> float:
     return math.degrees(2 * math.acos(min(1.0, abs(w) / max(math.hypot(w, y), 1e-12))))
 
 
-def zero_style(tmp_path: Path) -> Path:
+def zero_style(tmp_path: Path, scale: float = 0.0) -> Path:
+    """A style file of zero adapters (the result is the content, feet cleaned), or of random ones ``scale`` large
+    (a style that changes the motion)."""
     from transfer.lora import add_lora, lora_state
     from transfer.style import Style
     from video2style.pipeline import load_models
 
     model = copy.deepcopy(load_models().prior)
-    add_lora(model, rank=8)  # a style of zero adapters: the result is the content (feet cleaned)
-    style = tmp_path / "zero.v2s"
-    Style({k: torch.zeros_like(v) for k, v in lora_state(model).items()}, {"style": "zero", "rank": 8}).save(style)
+    add_lora(model, rank=8)
+    gen = torch.Generator().manual_seed(0)
+    tensors = {k: torch.randn(v.shape, generator=gen) * scale for k, v in lora_state(model).items()}
+    style = tmp_path / f"style{scale:g}.v2s"
+    Style(tensors, {"style": "zero" if scale == 0 else "random", "rank": 8}).save(style)
     return style
 
 
@@ -308,18 +326,20 @@ def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monk
 
     from video2style import batch
 
-    style = zero_style(tmp_path)
+    style = zero_style(tmp_path, 0.05)  # random adapters: a style that moves joints by up to ~15 cm
     monkeypatch.setattr("video2style.pipeline.learn_file",
                         lambda video, out, **kw: (out.parent.mkdir(parents=True, exist_ok=True), shutil.copy(style, out)))
     videos, content = tmp_path / "videos", tmp_path / "content"
     videos.mkdir()
     (videos / "v.mp4").write_bytes(b"not read by the fake learner")
-    converter.write(corpus_bvh(tmp_path / "src", "rigify"), content / "sub" / "walk.fbx")
+    converter.write(corpus_bvh(tmp_path / "src", "mixamo"), content / "sub" / "walk.fbx")
     shutil.copy(tmp_path / "src" / "walk.bvh", content / "plain.bvh")
     report = batch.run_batch(videos, content, tmp_path / "out", progress=lambda s: None)
     assert [r["status"] for r in report.rows] == ["done", "done"], report.rows
     assert (tmp_path / "out" / "v" / "sub" / "walk.fbx").is_file() and (tmp_path / "out" / "v" / "plain.bvh").is_file()
     assert not (tmp_path / "out" / "v" / "sub" / "walk.bvh").exists()
-    assert worst_gap(tmp_path / "out" / "v" / "plain.bvh", converter.to_bvh(tmp_path / "out" / "v" / "sub" / "walk.fbx")) < 1e-3
+    styled_fbx = converter.to_bvh(tmp_path / "out" / "v" / "sub" / "walk.fbx")
+    assert worst_gap(tmp_path / "out" / "v" / "plain.bvh", styled_fbx) < 1e-3  # the FBX route styles as the BVH one
+    assert worst_turn(tmp_path / "out" / "v" / "plain.bvh", styled_fbx) < 0.5  # every bone's twist too (6-decimal text)
     again = batch.run_batch(videos, content, tmp_path / "out", progress=lambda s: None)
     assert [r["status"] for r in again.rows] == ["skipped (done)"] * 2

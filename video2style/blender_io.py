@@ -167,9 +167,9 @@ def job_read(job):
             "meshes": meshes}
 
 
-def _build_armature(names, parents, offsets):
+def _build_armature(names, parents, offsets, ends):
     """A new armature from a BVH-like skeleton (armature space = the file's): each bone from its joint to
-    its first child (or along its parent's direction when it has none), roll 0."""
+    its first child, else to its End Site, else along its parent's direction; roll 0."""
     data = bpy.data.armatures.new("Armature")
     arm = bpy.data.objects.new("Armature", data)
     bpy.context.scene.collection.objects.link(arm)
@@ -187,6 +187,8 @@ def _build_armature(names, parents, offsets):
         b.head = heads[j]
         kids = children.get(j, [])
         direction = (heads[kids[0]] - heads[j]) if kids else None
+        if direction is None and not any(math.isnan(x) for x in ends[j]):
+            direction = Vector(ends[j])
         if direction is None or direction.length < 1e-6:
             direction = (heads[j] - heads[parents[j]]) * 0.5 if parents[j] >= 0 else Vector((0, 0, 0))
         if direction.length < 1e-6:
@@ -307,12 +309,13 @@ def job_write(job):
         bpy.data.actions.remove(act)  # the styled action takes its place (and its name)
     else:
         _clear()
-        arm = _build_armature([str(n) for n in npz["names"]], npz["parents"].tolist(), npz["offsets"])
+        arm = _build_armature([str(n) for n in npz["names"]], npz["parents"].tolist(), npz["offsets"], npz["ends"].tolist())
         if job.get("up", "Y") == "Y":  # the file's Y-up space in Blender's Z-up world: the exporters undo it
             arm.rotation_euler = Euler((math.pi / 2, 0.0, 0.0))
         name = os.path.splitext(os.path.basename(job["out"]))[0]
     scene = bpy.context.scene
-    scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
+    if not job.get("source"):  # a file's own scene keeps its rate (the clip's frames are its frames)
+        scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
     action, start, end = _key(arm, name, npz)
     scene.frame_start, scene.frame_end = start, end
     if job["format"] == "fbx":

@@ -644,7 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("preview", help="render BVH clips side by side to an mp4",
                        epilog="example: video2style preview a.bvh b.bvh --canonical -o ab.mp4")
-    v.add_argument("clips", nargs="+", type=Path, help="BVH files, drawn side by side")
+    v.add_argument("clips", nargs="+", type=Path, help="BVH (or FBX, GLB, glTF) clips, drawn side by side")
     v.add_argument("-o", "--output", type=Path, required=True, help="output .mp4")
     v.add_argument("--canonical", action="store_true", help="retarget to the canonical skeleton first")
     v.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
@@ -672,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "needed: write one here, fix the roles that are wrong, and pass it to learn/apply.\n"
                                "A map may be partial: it overrides only the roles it names (null: no such bone).",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    sk.add_argument("file", type=Path, help="a BVH file")
+    sk.add_argument("file", type=Path, help="a BVH file (or an FBX, GLB, glTF clip)")
     sk.add_argument("--write-map", type=Path, metavar="MAP.json", help="write the mapping as an editable joint map")
     sk.add_argument("--preview", type=Path, metavar="IMAGE.png", help="draw the pose read with the roles coloured")
     sk.add_argument("--joint-map", type=Path, metavar="MAP.json", help="your map: overrides the roles it names")
@@ -686,7 +686,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "The budget is iterations, so the same input gives the same style file on any machine;\n"
                                "a style learned in too few iterations is refused unless --allow-partial.",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...) or .bvh")
+    lr.add_argument("input", type=Path, help="video (.mp4, .mov, ...), .bvh, or an FBX/GLB/glTF clip")
     lr.add_argument("--style", type=_style_text, help="a name for the style, e.g. 'old', kept in the style file; learning does not use it "
                     "unless the style's config turns on lambda_s (default: from the file name)")
     lr.add_argument("--text", type=_style_text, help="what the person does, e.g. 'a person walks' (default: recognised)")
@@ -713,7 +713,7 @@ def build_parser() -> argparse.ArgumentParser:
                                "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --mix exhausted",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("style", type=Path, nargs="?", help="style file from `video2style learn` (not with --method stgcn)")
-    ap.add_argument("inputs", nargs="*", type=Path, help="BVH files or folders")
+    ap.add_argument("inputs", nargs="*", type=Path, help="BVH, FBX, GLB or glTF clips, or folders of them")
     ap.add_argument("-o", "--output", type=Path, required=True, help="output folder")
     ap.add_argument("--method", choices=["diffusion", "stgcn"], default="diffusion",
                     help="diffusion: a learned style file (default); stgcn: Park et al. 2021, style from a domain")
@@ -756,7 +756,8 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
                        epilog="example: video2style batch videos/ --content library/ -o results/")
     b.add_argument("videos", type=Path, help="folder of videos")
-    b.add_argument("--content", type=Path, required=True, help="folder of BVH clips (searched recursively)")
+    b.add_argument("--content", type=Path, required=True, help="folder of BVH (or FBX, GLB, glTF) clips, searched recursively; "
+                   "FBX/glTF results keep their format")
     b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
     b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
     b.add_argument("--seed", type=_style_option("seed"), default=0, help="noise seed for apply (default: %(default)s)")

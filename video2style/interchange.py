@@ -26,8 +26,6 @@ FORMATS = ("bvh", "fbx", "glb", "gltf")
 SCRIPT = Path(__file__).with_name("blender_io.py")
 HOW_TO_GET = ('pip install "video2style[fbx]" (the bpy module, Python 3.11) or install Blender 3.4+ with numpy '
               "in its Python so that `blender` is on PATH (Debian/Ubuntu: apt install blender python3-numpy)")
-STARTUP_SECONDS = 120.0
-JOB_SECONDS = 600.0
 
 
 class InterchangeError(ValueError):
@@ -138,16 +136,20 @@ class Blender:
 
 def motion_arrays(bvh: str | os.PathLike) -> dict[str, np.ndarray]:
     """A BVH file's joints as global transforms in the file's own units and axes, for keying onto an armature:
-    ``names`` (J,), ``grot`` (T, J, 4) wxyz, ``gpos`` (T, J, 3), ``parents`` (J,), ``offsets`` (J, 3), ``fps``."""
+    ``names`` (J,), ``grot`` (T, J, 4) wxyz, ``gpos`` (T, J, 3), ``parents`` (J,), ``offsets`` (J, 3), ``ends`` (J, 3) (End Site offsets, NaN where none), ``fps``."""
     from motioncore.bvh import read_bvh
     from motioncore.kinematics import fk
 
     motion, layout = read_bvh(bvh)
     grot, gpos = fk(motion.lrot, motion.lpos, motion.skeleton.parents)
     unit = 1.0 / layout.scale
-    return {"names": np.array(motion.skeleton.names), "grot": grot.numpy().astype(np.float64),
-            "gpos": gpos.numpy().astype(np.float64) * unit, "parents": np.array(motion.skeleton.parents),
-            "offsets": motion.skeleton.offsets.numpy().astype(np.float64) * unit, "fps": np.array(motion.fps)}
+    sk = motion.skeleton
+    ends = np.full((sk.num_joints, 3), np.nan)
+    for j, off in sk.end_sites.items():
+        ends[j] = off.numpy() * unit
+    return {"names": np.array(sk.names), "grot": grot.numpy().astype(np.float64),
+            "gpos": gpos.numpy().astype(np.float64) * unit, "parents": np.array(sk.parents),
+            "offsets": sk.offsets.numpy().astype(np.float64) * unit, "ends": ends, "fps": np.array(motion.fps)}
 
 
 def _up_axis(bvh: str | os.PathLike) -> str:
@@ -159,6 +161,17 @@ def _up_axis(bvh: str | os.PathLike) -> str:
     span = rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amax(0) - \
         rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amin(0)
     return "Z" if float(span[2]) > float(span[1]) else "Y"
+
+
+def _exact_frame_time(bvh: Path, fps: float) -> None:
+    """Blender's BVH exporter writes the frame time to 6 decimals (30 fps reads back as 30.0003, which moves
+    every resampled frame); write the scene's rate exactly."""
+    text = bvh.read_text(encoding="utf-8")
+    start = text.find("Frame Time:")
+    if start < 0 or not fps > 0:
+        return
+    end = text.find("\n", start)
+    bvh.write_text(f"{text[:start]}Frame Time: {1.0 / fps!r}{text[end:]}", encoding="utf-8")
 
 
 class Converter:
@@ -200,6 +213,7 @@ class Converter:
         info = self.blender.call({"op": "read", "path": str(path.resolve()), "bvh": str(bvh), "armature": self.armature,
                                   "action": self.action, "blend": str(where / "scene.blend")}, path)
         info["blend"] = str(where / "scene.blend")
+        _exact_frame_time(bvh, info["fps"])
         if self.notify is not None:
             for note in info.get("notes", []):
                 self.notify(f"note: {path}: {note}")
@@ -310,7 +324,7 @@ def shared_converter() -> Converter:
     """One :class:`Converter` for this process (a batch, or one Ray worker): its Blender starts with the first
     FBX/glTF clip and ends with the process."""
     if not _SHARED:
-        _SHARED.append(Converter())
+        _SHARED.append(Converter(notify=lambda s: print(s, file=sys.stderr)))
     return _SHARED[0]
 
 
