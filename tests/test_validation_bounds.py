@@ -402,3 +402,12 @@ def test_index_links_are_url_encoded(tmp_path):
     import re
 
     assert f'href="v/{encoded}_preview.mp4"' in page and not re.search(r'(href|src)="[^"]*a#b', page)
+
+
+def test_a_mix_seed_outside_the_seed_range_names_the_option():
+    from video2style.park_apply import StgcnRequest
+
+    for mix in ("99999999999999999999999", "--5"):
+        with pytest.raises(ValueError, match="--mix: expected a domain .* or an integer seed"):
+            StgcnRequest("elderly", mix=mix).validate(["elderly", "exhausted"])
+    StgcnRequest("elderly", mix="-3").validate(["elderly", "exhausted"])

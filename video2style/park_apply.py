@@ -57,8 +57,14 @@ class StgcnRequest:
         if self.mix is not None:
             if self.reference is not None:
                 raise ValueError("--mix: interpolates noise codes; it cannot be combined with --reference")
-            if not self.mix.lstrip("-").isdigit() and self.mix not in domains:
-                raise ValueError(f"--mix: expected a domain ({', '.join(domains)}) or an integer seed, got {self.mix!r}")
+            if self.mix not in domains:  # a seed, in the range --seed takes
+                from transfer.style_schema import check_config_value
+
+                try:
+                    check_config_value("seed", int(self.mix))
+                except ValueError:
+                    raise ValueError(f"--mix: expected a domain ({', '.join(domains)}) or an integer seed (the range "
+                                     f"--seed takes), got {self.mix[:40]!r}") from None
 
 
 def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> list[tuple[torch.Tensor, str]]:
