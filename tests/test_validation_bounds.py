@@ -102,8 +102,10 @@ def test_learn_refuses_a_name_longer_than_a_style_file_may_hold(tmp_path, capsys
         validate_meta({"style": "x" * (MAX_TEXT + 1)})
 
 
-def test_apply_and_batch_seeds_are_checked_while_parsing(tmp_path, capsys):
-    for argv in (["apply", "s.v2s", "c.bvh", "-o", str(tmp_path)], ["batch", "v", "--content", "c", "-o", str(tmp_path)]):
+def test_every_seed_option_is_checked_while_parsing(tmp_path, capsys):
+    for argv in (["apply", "s.v2s", "c.bvh", "-o", str(tmp_path)], ["batch", "v", "--content", "c", "-o", str(tmp_path)],
+                 ["dataset"], ["train-prior"], ["train-encoder", "--prior", "p"], ["train-park"], ["evaluate"],
+                 ["train-classifier", "--target", "style"]):
         with pytest.raises(SystemExit):
             main([*argv, "--seed", "99999999999999999999999"])
         assert "argument --seed: expected" in _option_error(capsys.readouterr().err)

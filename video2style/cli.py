@@ -636,7 +636,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--bandai2", type=Path, help="Bandai-Namco-Research-Motiondataset-2 .tar.xz")
     d.add_argument("--bandai1", type=Path, help="Bandai-Namco-Research-Motiondataset-1 (seen styles) .tar.xz")
     d.add_argument("-o", "--out", type=Path, default=default_dataset_dir(), help="cache folder (default: %(default)s)")
-    d.add_argument("--seed", type=int, default=0, help="split seed (default: %(default)s)")
+    d.add_argument("--seed", type=_style_option("seed"), default=0, help="split seed (default: %(default)s)")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     d.set_defaults(func=cmd_dataset)
 
@@ -775,7 +775,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
     t.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
     for name, typ in [("width", int), ("layers", int), ("heads", int), ("ff", int), ("batch_size", int), ("window", int),
-                      ("lr", float), ("seed", int)]:
+                      ("lr", float), ("seed", _style_option("seed"))]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
@@ -791,7 +791,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", type=Path, default=cache_dir() / "runs" / "encoder", help="run folder (default: %(default)s)")
     e.add_argument("--max-minutes", type=_positive, default=30.0, help="stop after this long; run again to resume (default: %(default)s)")
     e.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
-    for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", int)]:
+    for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", _style_option("seed"))]:
         e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
     _add_exclude_styles(e)
@@ -808,7 +808,8 @@ def build_parser() -> argparse.ArgumentParser:
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
     _add_device(tp)
     for name in ("batch_size", "window", "seed", "ds_decay_steps"):
-        tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=int, default=None,
+        tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=_style_option("seed") if name == "seed" else int,
+                        default=None,
                         help="default: see evaluation.park.train.ParkTrainConfig; a resumed run keeps its own")
     tp.add_argument("--lambda-ds", type=float, default=None,
                     help="weight of the diversity-sensitive loss (default 1, as in the paper)")
@@ -826,7 +827,7 @@ def build_parser() -> argparse.ArgumentParser:
     tc.add_argument("--max-steps", type=int, default=600, help="stop at this many optimiser steps in all (default: %(default)s)")
     tc.add_argument("--threads", type=int, default=0, help="torch threads, 0 = torch's default (default: %(default)s)")
     _add_device(tc)
-    tc.add_argument("--seed", type=int, default=None, help="random seed (default: the config's)")
+    tc.add_argument("--seed", type=_style_option("seed"), default=None, help="random seed (default: the config's)")
     tc.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")
 
@@ -847,7 +848,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="clips to evaluate on: val to choose settings, test to report (default: %(default)s)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
     ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
-    ev.add_argument("--seed", type=int, default=0, help="seed for example draws and noise (default: %(default)s)")
+    ev.add_argument("--seed", type=_style_option("seed"), default=0,
+                    help="seed for example draws and noise (default: %(default)s)")
     ev.add_argument("--unseen", action="store_true",
                     help="the unseen-style protocol: models trained without three styles (elderly, exhausted, feminine), "
                          "neutral content to those styles and, from the same models, to the others")
