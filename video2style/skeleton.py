@@ -70,7 +70,7 @@ def report_lines(rep: SkeletonReport) -> list[str]:
     lines = [f"{rep.path}: {sk.num_joints} joints, {rep.motion.num_frames} frames at {rep.motion.fps:g} fps",
              f"units: {units or f'{scale:.4g} m per file unit (unknown units, scaled to a human-sized figure)'}"]
     if h is not None:
-        facing = h.forward if h.forward != "?" else "unknown (no toes)"
+        facing = h.forward if h.forward != "?" else "unknown (the feet do not show it)"
         lines.append(f"up axis: {h.up} (hips to head over the clip), facing {facing} (read from the {h.pose})")
     up = quat.mul_vec(quat.inv(rig.basis), torch.tensor([0.0, 1.0, 0.0]))
     lines.append(f"world up in the motion: {'+-'[int(float(up[int(up.abs().argmax())]) < 0)]}{'XYZ'[int(up.abs().argmax())]}")
