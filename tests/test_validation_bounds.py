@@ -413,3 +413,14 @@ def test_a_mix_seed_outside_the_seed_range_names_the_option():
         with pytest.raises(ValueError, match="--mix: expected a domain .* or an integer seed"):
             StgcnRequest("elderly", mix=mix).validate(["elderly", "exhausted"])
     StgcnRequest("elderly", mix="-3").validate(["elderly", "exhausted"])
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["train-prior", "--lr", "nan"], "--lr"), (["train-prior", "--lr", "inf"], "--lr"),
+    (["train-prior", "--batch-size", "0"], "--batch-size"), (["train-encoder", "--prior", "p", "--window", "-3"], "--window"),
+    (["train-park", "--batch-size", "0"], "--batch-size"),
+])
+def test_training_sizes_and_rates_are_checked_while_parsing(capsys, argv, option):
+    with pytest.raises(SystemExit) as e:  # refused before any run folder or weights file is touched
+        main(argv)
+    assert e.value.code == 2 and f"argument {option}: expected" in _option_error(capsys.readouterr().err)

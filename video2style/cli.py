@@ -89,6 +89,13 @@ def _positive(v: str) -> float:
     return x
 
 
+def _finite_positive(v: str) -> float:
+    x = _positive(v)
+    if x == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite positive number, got {v}")
+    return x
+
+
 def _style_option(name: str):
     """An argparse ``type`` for the StyleConfig field ``name``: the range a style file is held to
     (:func:`transfer.style_schema.check_config_value`), checked while parsing, so learn never writes a file
@@ -774,8 +781,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", type=Path, default=cache_dir() / "runs" / "prior", help="run folder (default: %(default)s)")
     t.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
     t.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
-    for name, typ in [("width", int), ("layers", int), ("heads", int), ("ff", int), ("batch_size", int), ("window", int),
-                      ("lr", float), ("seed", _style_option("seed"))]:
+    for name, typ in [("width", _positive_int), ("layers", _positive_int), ("heads", _positive_int), ("ff", _positive_int),
+                      ("batch_size", _positive_int), ("window", _positive_int), ("lr", _finite_positive),
+                      ("seed", _style_option("seed"))]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
@@ -791,7 +799,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--out", type=Path, default=cache_dir() / "runs" / "encoder", help="run folder (default: %(default)s)")
     e.add_argument("--max-minutes", type=_positive, default=30.0, help="stop after this long; run again to resume (default: %(default)s)")
     e.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
-    for name, typ in [("batch_size", int), ("window", int), ("lr", float), ("seed", _style_option("seed"))]:
+    for name, typ in [("batch_size", _positive_int), ("window", _positive_int), ("lr", _finite_positive),
+                      ("seed", _style_option("seed"))]:
         e.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.motion_encoder.EncoderTrainConfig; a resumed run keeps its own")
     _add_exclude_styles(e)
@@ -808,7 +817,8 @@ def build_parser() -> argparse.ArgumentParser:
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
     _add_device(tp)
     for name in ("batch_size", "window", "seed", "ds_decay_steps"):
-        tp.add_argument(f"--{name.replace('_', '-')}", dest=name, type=_style_option("seed") if name == "seed" else int,
+        tp.add_argument(f"--{name.replace('_', '-')}", dest=name,
+                        type={"seed": _style_option("seed"), "ds_decay_steps": int}.get(name, _positive_int),
                         default=None,
                         help="default: see evaluation.park.train.ParkTrainConfig; a resumed run keeps its own")
     tp.add_argument("--lambda-ds", type=float, default=None,
