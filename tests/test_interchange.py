@@ -33,6 +33,19 @@ if args["op"] == "odd":  # files video2style must refuse, or choose in
     bpy.ops.export_scene.fbx(filepath=out + "/still.fbx", add_leaf_bones=False, bake_anim=False)
     io._clear()
     io._import(args["path"])
+    arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+    second = arm.animation_data.action.copy()
+    second.name = "Second"
+    for fc in second.fcurves:  # a different take: every key a frame later
+        for kp in fc.keyframe_points:
+            kp.co.x += 1
+    track = arm.animation_data.nla_tracks.new()
+    track.strips.new("Second", 1, second)
+    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 0, 60
+    bpy.ops.export_scene.fbx(filepath=out + "/takes.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
+                             bake_anim_use_all_actions=True)
+    io._clear()
+    io._import(args["path"])
     io._import(args["path"])
     bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 60
     bpy.ops.export_scene.fbx(filepath=out + "/two.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
@@ -304,6 +317,13 @@ def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_pat
     assert main(["skeleton", str(odd / "two.fbx"), "--armature", "Armature.001"]) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"{odd / 'two.fbx'}: ") and "mixamorig:LeftArm" in out
+    # two takes: the active one is used and the choice said; --action picks another; a wrong name lists them
+    assert main(["skeleton", str(odd / "takes.fbx")]) == 0
+    err = capsys.readouterr().err
+    assert "used action" in err and "Second" in err and "--action" in err
+    assert main(["skeleton", str(odd / "takes.fbx"), "--action", "nothing"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no action 'nothing'" in err[0] and "Second" in err[0]
 
 
 @needs_blender
