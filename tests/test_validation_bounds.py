@@ -183,7 +183,8 @@ def test_learn_uses_a_bounded_part_of_a_long_input_and_says_which(tmp_path, monk
     with safe_open(str(out), framework="pt") as f:
         meta = json.loads(f.metadata()["video2style"])
         assert f.get_slice("example").get_shape()[0] == limit
-    start, end = meta["span"]
+    start, end = meta["example_part"]
+    assert meta["span"] == [5.0, None] and f"{start:.1f}-{end:.1f} s of the input" in told[0]
     assert meta["example_seconds"] == pytest.approx(20.0) and 5.0 <= start and end - start == pytest.approx(20.0)
     assert end <= 60.0
 

@@ -238,10 +238,12 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models(device)
     features = encode(clip.canonical).sub_(m.mean).div_(m.std)  # normalised in place: a long take's features once
-    canonical, used = example_part(clip.canonical, features, span[0] or 0.0)
+    bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
+    canonical, used = example_part(clip.canonical, features, (span[0] or 0.0) if bvh else 0.0)
     del features
     if canonical is not clip.canonical:
-        progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s of the input ({clip.canonical.duration:.0f} s read): "
+        where = "of the input" if bvh else "from where the person was first tracked"
+        progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s {where} ({clip.canonical.duration:.0f} s read): "
                  f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
     example = (encode(canonical) - m.mean) / m.std
     if text is None:
@@ -264,7 +266,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
                                 "or --allow-partial to keep it)")
     style.example = encode(canonical)
     style.meta.update({"source": Path(path).name, "example_seconds": round(canonical.duration, 2),
-                       "span": [round(t, 2) for t in used], "partial": partial, "tempo": tempo})
+                       "span": list(span), "example_part": [round(t, 2) for t in used], "partial": partial,
+                       "tempo": tempo})
     progress(f"[4/4] writing {out_path}")
     style.save(out_path)
     return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
