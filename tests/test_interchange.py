@@ -363,3 +363,18 @@ def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monk
     assert worst_turn(tmp_path / "out" / "v" / "plain.bvh", styled_fbx) < 0.5  # every bone's twist too (6-decimal text)
     again = batch.run_batch(videos, content, tmp_path / "out", progress=lambda s: None)
     assert [r["status"] for r in again.rows] == ["skipped (done)"] * 2
+
+
+@needs_blender
+def test_a_failed_write_back_leaves_none_of_the_clips_outputs(tmp_path, converter, monkeypatch, capsys):
+    from video2style.cli import main
+
+    fbx = converter.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "in" / "walk.fbx")
+
+    def broken(self, bvh, out, source=None):
+        raise interchange.InterchangeError(f"{source}: Blender: the disk is full")
+
+    monkeypatch.setattr(Converter, "write", broken)
+    assert main(["apply", str(zero_style(tmp_path)), str(fbx), "-o", str(tmp_path / "out")]) == 1
+    assert "the disk is full" in capsys.readouterr().err
+    assert not [p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".video2style")]

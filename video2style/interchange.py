@@ -352,6 +352,11 @@ def in_format(run_item, converter, fmt: str | None = None):
             for out in outs:
                 written.append(str(conv.write(out, Path(out).with_suffix(suffix),
                                               source=path if is_clip_file(path) else None)))
+        except BaseException:  # a clip's outputs all or none: its preview goes too, and results already written
+            for extra in [*written, info.get("preview"), info.get("player")]:
+                if extra:
+                    Path(extra).unlink(missing_ok=True)
+            raise
         finally:
             for out in outs:  # the BVH step's own results
                 Path(out).unlink(missing_ok=True)
