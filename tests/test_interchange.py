@@ -378,3 +378,14 @@ def test_a_failed_write_back_leaves_none_of_the_clips_outputs(tmp_path, converte
     assert main(["apply", str(zero_style(tmp_path)), str(fbx), "-o", str(tmp_path / "out")]) == 1
     assert "the disk is full" in capsys.readouterr().err
     assert not [p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".video2style")]
+
+
+def test_folders_of_clips_leave_results_out(tmp_path):
+    from video2style.interchange import find_clip_files
+
+    for rel in ("a/walk.FBX", "b/run.glb", "c/x.gltf", "old_results/walk.fbx", "out/walk.fbx", "notes.txt"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(b"x")
+    (tmp_path / "old_results" / ".video2style.lock").write_text("pid 1")
+    assert [p.relative_to(tmp_path).as_posix() for p in find_clip_files(tmp_path, tmp_path / "out")] == \
+        ["a/walk.FBX", "b/run.glb", "c/x.gltf"]

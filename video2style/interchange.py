@@ -291,13 +291,17 @@ def add_arguments(parser, formats: bool = False) -> None:
 
 
 def find_clip_files(folder: str | os.PathLike, out_dir: str | os.PathLike | None = None) -> list[Path]:
-    """The FBX/glTF files in ``folder`` and its subfolders (any case of the suffix), sorted; those inside
-    ``out_dir`` (results) left out."""
-    skip = None if out_dir is None else Path(out_dir).resolve()
-    found = [p for p in Path(folder).rglob("*") if p.suffix.lower() in CLIP_SUFFIXES and p.is_file()]
-    if skip is not None:
-        found = [p for p in found if skip not in p.resolve().parents]
-    return sorted(found)
+    """The FBX/glTF files in ``folder`` and its subfolders (any case of the suffix), sorted; results left out as
+    :func:`video2style.pipeline.content_clips` leaves them: those in ``out_dir`` and in any subfolder holding
+    an earlier run's lock file."""
+    from video2style.paths import LOCK_NAME, inside, same_path
+
+    folder = Path(folder)
+    found = [p for p in folder.rglob("*") if p.suffix.lower() in CLIP_SUFFIXES and p.is_file()]
+    results = [lock.parent for lock in folder.rglob(LOCK_NAME) if lock.parent != folder]
+    if out_dir is not None and inside(out_dir, folder) and not same_path(out_dir, folder):
+        results.append(Path(out_dir))
+    return sorted(p for p in found if not any(inside(p, r) for r in results))
 
 
 def converter_for(args) -> Converter:
