@@ -123,3 +123,20 @@ def test_garbage_park_weights_are_one_line(tmp_path, clip, capsys):
     rc = main(["apply", "--method", "stgcn", "--domain", "elderly", "--weights", str(bad), str(clip), "-o", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert rc == 1 and f"{bad}: not Park stylizer weights" in err and "\n" not in err
+
+
+def test_training_commands_never_replace_the_shipped_weights_unless_named(tmp_path, capsys):
+    """By default train-classifier exports into its run folder; the installed weights stay as they were."""
+    import hashlib
+
+    from evaluation.classifiers import default_weights
+    from tests.synthetic_cache import write_synthetic_cache
+
+    shipped = default_weights("style")
+    before = hashlib.sha256(shipped.read_bytes()).hexdigest()
+    cache = write_synthetic_cache(tmp_path / "cache")
+    assert main(["train-classifier", "--target", "style", "--data", str(cache), "--out", str(tmp_path / "run"),
+                 "--max-steps", "1", "-q"]) == 0
+    assert (tmp_path / "run" / shipped.name).is_file()
+    assert f"weights: {tmp_path / 'run' / shipped.name}" in capsys.readouterr().out
+    assert hashlib.sha256(shipped.read_bytes()).hexdigest() == before

@@ -486,14 +486,14 @@ def cmd_train_park(args) -> None:
         explicit["weights"] = dataclasses.asdict(config.weights)
     if args.init is not None and not args.init.is_file():
         raise SystemExit(f"error: {args.init}: no such weights file (--init)")
-    weights = args.weights or default_weights()
+    weights = args.weights or args.out / default_weights().name  # the shipped file only when named
     _run_folder_checks(args, ["checkpoint.safetensors", "log.csv"], [("the --init weights", args.init)],
                        [("--weights", weights), ("--weights", weights.with_suffix(".json"))])
     if args.threads:
         torch.set_num_threads(args.threads)
     card = train_park(args.data, args.out, config, args.max_minutes, args.max_steps,
-                      args.weights, explicit, progress=not args.quiet, init_path=args.init, device=args.device)
-    print(f"step {card.get('steps', '?')}; weights: {args.weights or 'transfer/weights/park_stylizer.safetensors'}")
+                      weights, explicit, progress=not args.quiet, init_path=args.init, device=args.device)
+    print(f"step {card.get('steps', '?')}; weights: {weights}")
 
 
 def cmd_train_classifier(args) -> None:
@@ -509,14 +509,14 @@ def cmd_train_classifier(args) -> None:
         torch.set_num_threads(args.threads)
     explicit = {"seed": args.seed} if args.seed is not None else {}
     out = args.out or args.run_root / f"classifier_{args.target}"
-    weights = args.weights or default_weights(args.target)
+    weights = args.weights or out / default_weights(args.target).name  # the shipped file only when named
     check_outputs([("--out", out), ("--out", out / "checkpoint.safetensors"), ("--out", out / "log.csv"),
                    ("--weights", weights), ("--weights", weights.with_suffix(".json"))], _data_inputs(args.data))
     card = train_classifier(args.data, out, args.target, args.max_minutes, args.max_steps,
-                            ClassifierTrainConfig(target=args.target, **explicit), args.weights, explicit, progress=not args.quiet,
+                            ClassifierTrainConfig(target=args.target, **explicit), weights, explicit, progress=not args.quiet,
                             device=args.device)
     print(f"{args.target} classifier: step {card['steps']}, test accuracy {100 * card['test_accuracy']:.1f}% "
-          f"on {card['test_clips']} clips")
+          f"on {card['test_clips']} clips; weights: {weights}")
 
 
 def cmd_evaluate(args) -> None:
@@ -811,7 +811,8 @@ def build_parser() -> argparse.ArgumentParser:
     tp = sub.add_parser("train-park", help="train (or resume) Park et al.'s ST-GCN stylizer on the Bandai-2 styles")
     tp.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tp.add_argument("--out", type=Path, default=cache_dir() / "runs" / "park", help="run folder (default: %(default)s)")
-    tp.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/park_stylizer.safetensors)")
+    tp.add_argument("--weights", type=Path, help="exported weights (default: park_stylizer.safetensors in the run folder; "
+                    "name the package's transfer/weights/ file to replace the shipped ones)")
     tp.add_argument("--max-minutes", type=_positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
     tp.add_argument("--max-steps", type=int, default=100_000, help="stop at this many optimiser steps in all (default: %(default)s)")
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
@@ -832,7 +833,8 @@ def build_parser() -> argparse.ArgumentParser:
     tc.add_argument("--target", choices=["content", "style"], required=True, help="what the classifier recognises")
     tc.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tc.add_argument("--out", type=Path, help="run folder (default: <cache>/runs/classifier_<target>)")
-    tc.add_argument("--weights", type=Path, help="exported weights (default: transfer/weights/classifier_<target>.safetensors)")
+    tc.add_argument("--weights", type=Path, help="exported weights (default: classifier_<target>.safetensors in the run "
+                    "folder; name the package's transfer/weights/ file to replace the shipped ones)")
     tc.add_argument("--max-minutes", type=_positive, default=10.0, help="stop after this long; run again to resume (default: %(default)s)")
     tc.add_argument("--max-steps", type=int, default=600, help="stop at this many optimiser steps in all (default: %(default)s)")
     tc.add_argument("--threads", type=int, default=0, help="torch threads, 0 = torch's default (default: %(default)s)")
