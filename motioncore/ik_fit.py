@@ -34,6 +34,8 @@ from motioncore.kinematics import fk, to_local
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
 
+CHUNK = 5_000  # frames solved at a time by fit_positions: bounds the float64 temporaries of a long take
+
 # Mean local rotation (w, x, y, z) per canonical joint; Hips (the root) is unused.
 # From reference_local_rotations() over the non-mirrored bandai2 clips of the training split.
 REFERENCE_LOCAL: dict[str, tuple[float, float, float, float]] = {
@@ -136,13 +138,29 @@ def fit_positions(
         raise ValueError(f"fit_positions: expected targets (T>=1, {j_count}, 3), got {tuple(targets.shape)}")
     if not torch.isfinite(targets).all():
         raise ValueError("fit_positions: targets contain NaN or inf; interpolate missing frames first")
-    x = targets.double()
+    t_count = targets.shape[0]
+    leaf_rotations = leaf_rotations or {}
+    g_all = torch.empty(t_count, j_count, 4, dtype=torch.float64)
+    for a in range(0, t_count, CHUNK):  # each frame is solved on its own: a long take a chunk at a time
+        g_all[a:a + CHUNK] = _global_rotations(targets[a:a + CHUNK].double(), sk, reference, anchors, hinges,
+                                               {j: q[a:a + CHUNK] for j, q in leaf_rotations.items()}, relative)
+    lrot = to_local(quat.unroll(g_all, dim=0), sk.parents)
+    del g_all
+    lrot = quat.unroll(lrot, dim=0).float()
+    lpos = sk.offsets.expand(t_count, -1, -1).clone()  # float32 as the double round trip gave: the offsets, the root
+    lpos[:, 0] = targets[:, 0]
+    return Motion(sk, lrot, lpos, fps)
+
+
+def _global_rotations(x: torch.Tensor, sk: Skeleton, reference, anchors, hinges, leaf_rotations,
+                      relative: bool) -> torch.Tensor:
+    """:func:`fit_positions`' per-frame solve: float64 targets ``x (T, J, 3)`` -> global rotations ``(T, J, 4)``."""
+    j_count = sk.num_joints
     t_count = x.shape[0]
     ref = (default_reference(sk) if reference is None else reference).double()
     offsets = sk.offsets.double()
     hinges = HINGES if hinges is None else hinges
     hinge_idx = {sk.index(n): torch.tensor(a, dtype=torch.float64) for n, a in hinges.items() if n in sk.names}
-    leaf_rotations = leaf_rotations or {}
     children = [sk.children(j) for j in range(j_count)]
     anchors = dict(anchors or {})
 
@@ -173,13 +191,7 @@ def fit_positions(
         grot[j] = quat.normalize(g)
         for c in kids:
             gpos[c] = gpos[j] + quat.mul_vec(grot[j], offsets[c].expand(t_count, 3))
-
-    g_all = quat.unroll(torch.stack(grot, dim=1), dim=0)
-    lrot = to_local(g_all, sk.parents)
-    lrot = quat.unroll(lrot, dim=0)
-    lpos = offsets.expand(t_count, -1, -1).clone()
-    lpos[:, 0] = x[:, 0]
-    return Motion(sk, lrot.float(), lpos.float(), fps)
+    return torch.stack(grot, dim=1)
 
 
 def _reference_vector(sk: Skeleton, ref: torch.Tensor, j: int, d: int, offsets: torch.Tensor) -> torch.Tensor:
@@ -226,7 +238,8 @@ def decode_via_positions(feats: torch.Tensor, fps: float, start_yaw: float = 0.0
     pos = decode_positions(feats.double(), spec, start_yaw)
     pos[..., 0] += start_xz[0]
     pos[..., 2] += start_xz[1]
-    return fit_positions(pos.float(), fps, spec)
+    pos = pos.float()  # the float64 copy is not kept while the fit runs
+    return fit_positions(pos, fps, spec)
 
 
 def limb_chains(sk: Skeleton) -> dict[str, list[int]]:
