@@ -12,7 +12,7 @@ Jobs (every path absolute; each job starts from an empty scene):
   armature's own space and units (Blender's BVH exporter), and the imported scene to the .blend P.
   Answers the armature, action, both lists, fps and frame range.
 * ``{"op": "write", "source": F|null, "motion": NPZ, "out": O, "format": "fbx"|"glb"|"gltf", "armature",
-  "action", "up": "Y"|"Z"}``: with a source, import F again and key its armature's bones (matched by name)
+  "action", "up": "+Y"|"+Z"|...}``: with a source, import F again and key its armature's bones (matched by name)
   to the global joint transforms in NPZ (``names``, ``grot`` (T, J, 4) wxyz and ``gpos`` (T, J, 3) in
   armature units and axes, ``fps``, ``frame_start``), replacing the chosen action; everything else in the
   file (meshes, materials, skin weights, rest pose, roll, other bones' names) is what the importer made.
@@ -310,8 +310,10 @@ def job_write(job):
     else:
         _clear()
         arm = _build_armature([str(n) for n in npz["names"]], npz["parents"].tolist(), npz["offsets"], npz["ends"].tolist())
-        if job.get("up", "Y") == "Y":  # the file's Y-up space in Blender's Z-up world: the exporters undo it
-            arm.rotation_euler = Euler((math.pi / 2, 0.0, 0.0))
+        # the file's up axis turned to Blender's +Z (the exporters turn it back to their own convention)
+        turn = {"+Z": (0, 0, 0), "-Z": (math.pi, 0, 0), "+Y": (math.pi / 2, 0, 0), "-Y": (-math.pi / 2, 0, 0),
+                "+X": (0, -math.pi / 2, 0), "-X": (0, math.pi / 2, 0)}
+        arm.rotation_euler = Euler(turn.get(job.get("up", "+Y"), (math.pi / 2, 0, 0)))
         name = os.path.splitext(os.path.basename(job["out"]))[0]
     scene = bpy.context.scene
     if not job.get("source"):  # a file's own scene keeps its rate (the clip's frames are its frames)

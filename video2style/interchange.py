@@ -153,14 +153,25 @@ def motion_arrays(bvh: str | os.PathLike) -> dict[str, np.ndarray]:
 
 
 def _up_axis(bvh: str | os.PathLike) -> str:
-    """"Z" when a BVH skeleton stands along Z (Blender, Unreal), else "Y"."""
+    """The file axis ("+Y", "-Z", ...) a BVH skeleton's up is nearest: the humanoid mapping's (its rig's
+    basis, decided once in :mod:`motioncore.humanoid`), else the longest side of the rest pose."""
+    import torch
+
+    from motioncore import quat
     from motioncore.bvh import read_bvh
     from motioncore.kinematics import rest_positions
+    from motioncore.retarget import RetargetError, make_rig
 
     motion, _ = read_bvh(bvh)
-    span = rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amax(0) - \
-        rest_positions(motion.skeleton.offsets, motion.skeleton.parents).amin(0)
-    return "Z" if float(span[2]) > float(span[1]) else "Y"
+    try:
+        basis = make_rig(motion.skeleton, motion).basis
+        up = quat.mul_vec(quat.inv(basis), torch.tensor([0.0, 1.0, 0.0]))  # canonical up in the file's axes
+    except RetargetError:
+        rest = rest_positions(motion.skeleton.offsets, motion.skeleton.parents)
+        up = torch.zeros(3)
+        up[int((rest.amax(0) - rest.amin(0)).argmax())] = 1.0
+    axis = int(up.abs().argmax())
+    return ("+" if float(up[axis]) > 0 else "-") + "XYZ"[axis]
 
 
 def _exact_frame_time(bvh: Path, fps: float) -> None:
