@@ -389,3 +389,21 @@ def test_folders_of_clips_leave_results_out(tmp_path):
     (tmp_path / "old_results" / ".video2style.lock").write_text("pid 1")
     assert [p.relative_to(tmp_path).as_posix() for p in find_clip_files(tmp_path, tmp_path / "out")] == \
         ["a/walk.FBX", "b/run.glb", "c/x.gltf"]
+
+
+@needs_blender
+def test_errors_after_reading_name_the_users_file(tmp_path, converter, capsys):
+    from motioncore.bvh import BvhLayout, write_bvh
+    from tests.rig_corpus import NON_HUMANOID, rest_motion
+    from video2style.cli import main
+
+    dog = NON_HUMANOID["quadruped"]
+    bvh = tmp_path / "dog.bvh"
+    write_bvh(bvh, rest_motion(dog, frames=30), BvhLayout.default(dog))
+    fbx = converter.write(bvh, tmp_path / "in" / "dog.fbx")
+    assert main(["skeleton", str(fbx)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(fbx) in err[0] and "interchange" not in err[0], err
+    assert main(["apply", str(zero_style(tmp_path)), str(fbx), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert str(fbx) in err and "video2style-interchange" not in err, err

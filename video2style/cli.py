@@ -903,7 +903,9 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except (CliError, ValueError, FileNotFoundError, RuntimeError) as e:
-        print(f"video2style {args.command}: error: {e}", file=sys.stderr)
+        from video2style.interchange import named
+
+        print(f"video2style {args.command}: error: {named(args, str(e))}", file=sys.stderr)
         return 1
     except OSError as e:  # a full or read-only disk, a vanished folder: one line naming the path
         where = f"{e.filename}: " if e.filename else ""

@@ -231,6 +231,12 @@ class Converter:
         self._read[path] = (bvh, info)
         return bvh
 
+    def named(self, text: str) -> str:
+        """``text`` (an error message) with each temporary BVH path replaced by the clip it was read from."""
+        for source, (bvh, _) in self._read.items():
+            text = text.replace(str(bvh), str(source))
+        return text
+
     def info(self, path: str | os.PathLike) -> dict | None:
         """What reading ``path`` found (armature, action, fps, frame range, meshes); None for a BVH."""
         entry = self._read.get(Path(path))
@@ -325,6 +331,12 @@ def converter_for(args) -> Converter:
     return conv
 
 
+def named(args, text: str) -> str:
+    """An error message of the command with its FBX/glTF clips' temporary BVH files named by the clips."""
+    conv = getattr(args, "clip_converter", None)
+    return text if conv is None else conv.named(text)
+
+
 def as_bvh(args, path: str | os.PathLike | None):
     """``path`` for the BVH-only steps: itself for a BVH or video, a BVH of its action for FBX/glTF."""
     if path is None or not is_clip_file(path):
@@ -357,7 +369,10 @@ def in_format(run_item, converter, fmt: str | None = None):
         if not is_clip_file(path) and suffix == ".bvh":
             return run_item(path, where)
         conv = converter()
-        info = run_item(conv.to_bvh(path), where)
+        try:
+            info = run_item(conv.to_bvh(path), where)
+        except ValueError as e:  # a message naming the temporary BVH names the user's file instead
+            raise InterchangeError(conv.named(str(e))) from e
         info["input"] = str(path)
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
         if suffix == ".bvh":
