@@ -314,7 +314,7 @@ def job_write(job):
         turn = {"+Z": (0, 0, 0), "-Z": (math.pi, 0, 0), "+Y": (math.pi / 2, 0, 0), "-Y": (-math.pi / 2, 0, 0),
                 "+X": (0, -math.pi / 2, 0), "-X": (0, math.pi / 2, 0)}
         arm.rotation_euler = Euler(turn.get(job.get("up", "+Y"), (math.pi / 2, 0, 0)))
-        name = os.path.splitext(os.path.basename(job["out"]))[0]
+        name = job.get("name") or "Action"
     scene = bpy.context.scene
     if not job.get("source"):  # a file's own scene keeps its rate (the clip's frames are its frames)
         scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps

@@ -98,7 +98,7 @@ class Blender:
             if line.startswith("V2S-RESULT "):
                 out = json.loads(line[len("V2S-RESULT "):])
                 if not out.pop("ok"):
-                    error = out["error"]
+                    error = " ".join(str(out["error"]).split())  # one line, whatever Blender said
                     raise InterchangeError(error if error.startswith(str(path)) else f"{path}: {error}")
                 return out
         tail = self._tail()
@@ -257,7 +257,7 @@ class Converter:
                 shutil.copyfile(bvh, tmp)
             return out
         arrays = motion_arrays(bvh)
-        job = {"op": "write", "out": "", "format": fmt, "armature": self.armature, "action": self.action}
+        job = {"op": "write", "out": "", "format": fmt, "armature": self.armature, "action": self.action, "name": out.stem}
         if source is not None and is_clip_file(source):
             if self.info(source) is None:
                 self.to_bvh(source)
