@@ -144,7 +144,10 @@ def fit_positions(
     for a in range(0, t_count, CHUNK):  # each frame is solved on its own: a long take a chunk at a time
         g_all[a:a + CHUNK] = _global_rotations(targets[a:a + CHUNK].double(), sk, reference, anchors, hinges,
                                                {j: q[a:a + CHUNK] for j, q in leaf_rotations.items()}, relative)
-    lrot = to_local(quat.unroll(g_all, dim=0), sk.parents)
+    g_all = quat.unroll(g_all, dim=0)  # signs continuous over the whole clip, then each frame made local
+    lrot = torch.empty_like(g_all)
+    for a in range(0, t_count, CHUNK):
+        lrot[a:a + CHUNK] = to_local(g_all[a:a + CHUNK], sk.parents)
     del g_all
     lrot = quat.unroll(lrot, dim=0).float()
     lpos = sk.offsets.expand(t_count, -1, -1).clone()  # float32 as the double round trip gave: the offsets, the root
@@ -235,7 +238,7 @@ def decode_via_positions(feats: torch.Tensor, fps: float, start_yaw: float = 0.0
     less reliable than their positions. ``representation.decode`` uses the rotation channels instead."""
     from motioncore.representation import decode_positions
 
-    pos = decode_positions(feats.double(), spec, start_yaw)
+    pos = decode_positions(feats, spec, start_yaw, dtype=torch.float64)  # no float64 copy of every feature
     pos[..., 0] += start_xz[0]
     pos[..., 2] += start_xz[1]
     pos = pos.float()  # the float64 copy is not kept while the fit runs
@@ -277,7 +280,9 @@ def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, star
     sk = spec.skeleton
     grot_r, gpos_r = fk(by_rot.lrot, by_rot.lpos, sk.parents)
     grot_p, gpos_p = fk(by_pos.lrot, by_pos.lpos, sk.parents)
+    del by_pos  # a long take: what is no longer needed goes before the next whole-clip array is made
     rel_r, rel_p = gpos_r - gpos_r[:, :1], gpos_p - gpos_p[:, :1]
+    del gpos_r, gpos_p
     rel_ref = None
     if reference is not None:
         if reference.num_frames != by_rot.num_frames:
@@ -285,6 +290,7 @@ def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, star
                              f"got {reference.num_frames}")
         g_ref = reference.global_positions()
         rel_ref = g_ref - g_ref[:, :1]
+        del g_ref
     lrot = by_rot.lrot.clone()
     for end, chain in limb_chains(sk).items():
         e = sk.index(end)

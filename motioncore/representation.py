@@ -181,18 +181,41 @@ def decode(
     return Motion(spec.skeleton, lrot, lpos, fps)
 
 
-def decode_positions(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL, start_yaw: float = 0.0) -> torch.Tensor:
-    """Global positions ``(*, T, J, 3)`` from the position features (not the rotations), differentiable."""
+def decode_positions(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL, start_yaw: float = 0.0,
+                     dtype: torch.dtype | None = None) -> torch.Tensor:
+    """Global positions ``(*, T, J, 3)`` from the position features (not the rotations), differentiable.
+
+    ``dtype`` (default: the features'): the precision to compute in, e.g. float64 from float32 features without
+    a converted copy of them all; the same values as ``decode_positions(feats.to(dtype))``. A clip ``(T, D)``
+    longer than :data:`CHUNK` frames that needs no gradient has its root path integrated over the whole clip and
+    its joints placed :data:`CHUNK` frames at a time (a long take's temporaries stay small)."""
     fs = FeatureSpec(spec.num_joints)
     if feats.shape[-1] != fs.dim:
         raise ValueError(f"decode_positions: expected (*, T, {fs.dim}), got {tuple(feats.shape)}")
-    rvel = feats[..., fs.root_rvel.start]
+    dtype = dtype or feats.dtype
+
+    def column(i: int) -> torch.Tensor:
+        return feats[..., i].to(dtype)
+
+    rvel = column(fs.root_rvel.start)
     theta = torch.cumsum(rvel, -1) - rvel + start_yaw
     yaw = quat.from_yaw(theta)
-    lvel = torch.stack([feats[..., fs.root_lvel.start], torch.zeros_like(rvel), feats[..., fs.root_lvel.start + 1]], -1)
+    lvel = torch.stack([column(fs.root_lvel.start), torch.zeros_like(rvel), column(fs.root_lvel.start + 1)], -1)
     step = quat.mul_vec(yaw, lvel)
     root = torch.cumsum(step, -2) - step
-    rel = feats[..., fs.positions].unflatten(-1, (spec.num_joints - 1, 3))
+    hips = root + torch.stack([torch.zeros_like(rvel), column(fs.root_height.start), torch.zeros_like(rvel)], -1)
+    if feats.ndim != 2 or feats.shape[0] <= CHUNK or (torch.is_grad_enabled() and feats.requires_grad):
+        return _place_joints(feats, spec, yaw, root, hips, dtype)
+    out = torch.empty(feats.shape[0], spec.num_joints, 3, dtype=dtype, device=feats.device)
+    for a in range(0, feats.shape[0], CHUNK):
+        out[a:a + CHUNK] = _place_joints(feats[a:a + CHUNK], spec, yaw[a:a + CHUNK], root[a:a + CHUNK],
+                                         hips[a:a + CHUNK], dtype)
+    return out
+
+
+def _place_joints(feats: torch.Tensor, spec: CanonicalSpec, yaw: torch.Tensor, root: torch.Tensor,
+                  hips: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
+    """:func:`decode_positions`' per-frame part: the joints of ``feats (*, T, D)`` around the root path."""
+    rel = feats[..., FeatureSpec(spec.num_joints).positions].to(dtype).unflatten(-1, (spec.num_joints - 1, 3))
     rel = quat.mul_vec(yaw[..., None, :], rel) + root[..., None, :]
-    hips = root + torch.stack([torch.zeros_like(rvel), feats[..., fs.root_height.start], torch.zeros_like(rvel)], -1)
     return torch.cat([hips[..., None, :], rel], dim=-2)

@@ -104,3 +104,20 @@ def test_fit_positions_a_chunk_at_a_time_gives_the_whole_clip_result(monkeypatch
     monkeypatch.setattr(ik, "CHUNK", 5_000)
     torch.testing.assert_close(flipped.lrot, ik.fit_positions(targets, 20.0, relative=False, hinges={}).lrot,
                                atol=1e-12, rtol=0)
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 5_000])
+def test_decode_positions_of_a_long_take_needs_no_float64_copy_and_gives_the_same_values(monkeypatch, chunk):
+    """The position decode (inside the guarded decode) places joints a chunk at a time from float32 features; the
+    root path is integrated over the whole clip, so every value is the one the float64 copy gave."""
+    import motioncore.representation as rep
+
+    feats = torch.randn(40, FEATURES.dim, generator=torch.Generator().manual_seed(2))
+    want = rep.decode_positions(feats.double(), start_yaw=0.3)
+    monkeypatch.setattr(rep, "CHUNK", chunk)
+    got = rep.decode_positions(feats, start_yaw=0.3, dtype=torch.float64)
+    assert got.dtype == torch.float64 and torch.equal(got, want)
+    assert torch.equal(rep.decode_positions(feats, start_yaw=0.3), rep.decode_positions(feats[None], start_yaw=0.3)[0])
+    grad = feats.clone().requires_grad_(True)  # training's path keeps its gradient (whole clip)
+    rep.decode_positions(grad).sum().backward()
+    assert grad.grad is not None and torch.isfinite(grad.grad).all()
