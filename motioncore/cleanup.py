@@ -83,14 +83,16 @@ def two_bone_ik(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, pare
     return out
 
 
-def cleanup_feet(motion: Motion, reference: Motion | None = None, blend: int = 4, spec: CanonicalSpec = CANONICAL) -> Motion:
-    """Pin the feet of a canonical ``motion`` during the contacts of ``reference`` (default: itself)."""
+def cleanup_feet(motion: Motion, reference: Motion | None = None, blend: int = 4, spec: CanonicalSpec = CANONICAL,
+                 floor: torch.Tensor | None = None) -> Motion:
+    """Pin the feet of a canonical ``motion`` during the contacts of ``reference`` (default: itself); ``floor``:
+    see :func:`motioncore.representation.foot_contacts`."""
     if motion.skeleton.names != spec.skeleton.names:
         raise ValueError("cleanup_feet: expected a motion on the canonical skeleton")
     ref = reference if reference is not None else motion
     if ref.num_frames != motion.num_frames:
         raise ValueError(f"cleanup_feet: expected a reference of {motion.num_frames} frames, got {ref.num_frames}")
-    contacts = foot_contacts(ref.global_positions(), ref.fps, spec)  # (T, 4): Foot_L, Toes_L, Foot_R, Toes_R
+    contacts = foot_contacts(ref.global_positions(), ref.fps, spec, floor)  # (T, 4): Foot_L, Toes_L, Foot_R, Toes_R
     rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)
     feet = list(spec.feet)
     ankle_floor = float(rest[feet[0], 1] - rest[feet, 1].min())

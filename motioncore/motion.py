@@ -52,17 +52,34 @@ def resample(motion: Motion, fps: float) -> Motion:
     """Resample to ``fps`` by slerp (rotations) and lerp (positions) over the same duration."""
     if abs(fps - motion.fps) < 1e-9:
         return motion
-    n_out = max(1, round((motion.num_frames - 1) * fps / motion.fps) + 1)
-    lrot = torch.empty(n_out, *motion.lrot.shape[1:])
-    lpos = torch.empty(n_out, *motion.lpos.shape[1:])
-    for a in range(0, n_out, _CHUNK):  # a chunk of frames at a time: a long take's temporaries stay small
-        t = torch.arange(a, min(a + _CHUNK, n_out), dtype=torch.float64) * (motion.fps / fps)
-        t = t.clamp(max=motion.num_frames - 1)
-        i0 = t.floor().long().clamp(max=motion.num_frames - 1)
-        i1 = (i0 + 1).clamp(max=motion.num_frames - 1)
+    return resample_span(motion, fps, 0, resampled_frames(motion.num_frames, motion.fps, fps))
+
+
+def resampled_frames(frames: int, fps: float, to_fps: float) -> int:
+    """How many frames :func:`resample` makes of ``frames`` frames at ``fps``, resampled to ``to_fps``."""
+    return frames if abs(to_fps - fps) < 1e-9 else max(1, round((frames - 1) * to_fps / fps) + 1)
+
+
+def resample_span(motion: Motion, fps: float, start: int, stop: int, first: int = 0, total: int | None = None) -> Motion:
+    """Frames ``start..stop-1`` of :func:`resample` of a take of ``total`` frames (default: ``motion``'s), of
+    which ``motion`` holds frames ``first..``: a long take is resampled a span at a time, the same values. Raises
+    when ``motion`` lacks a frame the span interpolates from."""
+    total = motion.num_frames if total is None else total
+    lrot = torch.empty(stop - start, *motion.lrot.shape[1:])
+    lpos = torch.empty(stop - start, *motion.lpos.shape[1:])
+    for a in range(start, stop, _CHUNK):  # a chunk of frames at a time: a long take's temporaries stay small
+        t = torch.arange(a, min(a + _CHUNK, stop), dtype=torch.float64) * (motion.fps / fps)
+        t = t.clamp(max=total - 1)
+        i0 = t.floor().long().clamp(max=total - 1)
+        i1 = (i0 + 1).clamp(max=total - 1)
         w = (t - i0).float()
-        lrot[a:a + _CHUNK] = quat.slerp(motion.lrot[i0], motion.lrot[i1], w[:, None])
-        lpos[a:a + _CHUNK] = motion.lpos[i0] + (motion.lpos[i1] - motion.lpos[i0]) * w[:, None, None]
+        i0, i1 = i0 - first, i1 - first
+        if int(i0[0]) < 0 or int(i1[-1]) >= motion.num_frames:
+            raise ValueError(f"resample_span: expected frames {first + int(i0[0])}-{first + int(i1[-1])} of the take, "
+                             f"got {first}-{first + motion.num_frames - 1}")
+        z = slice(a - start, a - start + len(t))
+        lrot[z] = quat.slerp(motion.lrot[i0], motion.lrot[i1], w[:, None])
+        lpos[z] = motion.lpos[i0] + (motion.lpos[i1] - motion.lpos[i0]) * w[:, None, None]
     return Motion(motion.skeleton, lrot, lpos, fps)
 
 

@@ -74,14 +74,16 @@ def facing_angle(gpos: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.T
     return torch.atan2(-across[..., 2], across[..., 0])  # forward = across x up = (-a_z, 0, a_x)
 
 
-def foot_contacts(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
-    """Contact flags ``(T, 4)`` for (Foot_L, Toes_L, Foot_R, Toes_R) from height and speed."""
+def foot_contacts(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL,
+                  floor: torch.Tensor | None = None) -> torch.Tensor:
+    """Contact flags ``(T, 4)`` for (Foot_L, Toes_L, Foot_R, Toes_R) from height and speed. ``floor (4,)``: each
+    foot joint's lowest height over the take (default: over ``gpos``; a span of a long take gives the take's)."""
     feet = gpos[:, list(spec.feet)]  # (T, 4, 3)
     vel = torch.zeros_like(feet)
     if feet.shape[0] > 1:
         vel[:-1] = (feet[1:] - feet[:-1]) * fps
         vel[-1] = vel[-2]
-    floor = feet[..., 1].amin(0, keepdim=True)
+    floor = feet[..., 1].amin(0, keepdim=True) if floor is None else floor.to(feet.dtype)[None]
     rest_height = _rest_foot_heights(spec)
     height = feet[..., 1] - floor - (rest_height - rest_height.min())
     return ((height < CONTACT_HEIGHT) & (vel.norm(dim=-1) < CONTACT_SPEED)).float()
@@ -95,8 +97,10 @@ def _rest_foot_heights(spec: CanonicalSpec) -> torch.Tensor:
 CHUNK = 5_000  # frames encoded or decoded at a time: bounds the float64 temporaries of a long clip
 
 
-def encode(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
-    """Canonical motion -> features ``(T, D)`` float32. Bone lengths come from the canonical skeleton."""
+def encode(motion: Motion, spec: CanonicalSpec = CANONICAL, floor: torch.Tensor | None = None) -> torch.Tensor:
+    """Canonical motion -> features ``(T, D)`` float32. Bone lengths come from the canonical skeleton.
+    ``floor (4,)``: the foot joints' lowest heights for the contact channels (default: ``motion``'s own; a
+    span of a long take gives the take's, see :func:`foot_contacts`)."""
     if motion.skeleton.names != spec.skeleton.names:
         raise ValueError("encode: expected a motion on the canonical skeleton (retarget it first)")
     n = motion.num_frames
@@ -128,7 +132,7 @@ def encode(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
         speed[a:b] = (_forward_difference(feet) * motion.fps).norm(dim=-1)[keep]
         out[a:b, : fs.contacts.start] = torch.cat(
             [dtheta[:, None], lvel, root[:, 1:2], rel.flatten(1), rot6.flatten(1)], dim=1)[keep].float()
-    out[:, fs.contacts] = _contacts(feet_y, speed, spec).float()
+    out[:, fs.contacts] = _contacts(feet_y, speed, spec, floor).float()
     return out
 
 
@@ -139,8 +143,9 @@ def _forward_difference(x: torch.Tensor, wrap=None) -> torch.Tensor:
     return torch.cat([d, d[-1:]])
 
 
-def _contacts(feet_y: torch.Tensor, speed: torch.Tensor, spec: CanonicalSpec) -> torch.Tensor:
-    floor = feet_y.amin(0, keepdim=True)
+def _contacts(feet_y: torch.Tensor, speed: torch.Tensor, spec: CanonicalSpec,
+              floor: torch.Tensor | None = None) -> torch.Tensor:
+    floor = feet_y.amin(0, keepdim=True) if floor is None else floor.to(feet_y.dtype)[None]
     rest_height = _rest_foot_heights(spec)
     height = feet_y - floor - (rest_height - rest_height.min())
     return ((height < CONTACT_HEIGHT) & (speed < CONTACT_SPEED)).double()

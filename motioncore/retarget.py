@@ -288,7 +288,7 @@ def canonical_change(before: Motion, after: Motion) -> tuple[torch.Tensor, torch
     return quat.mul(rot_a, quat.inv(rot_b)), pos_a[:, 0] - pos_b[:, 0]
 
 
-def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig) -> Motion:
+def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig, offset: float = 0.0) -> Motion:
     """``original`` (on ``rig.skeleton``) changed the way ``after`` differs from ``before``.
 
     ``before`` is ``original`` on the canonical skeleton (any fps, e.g. resampled to 20) and ``after`` an
@@ -298,13 +298,15 @@ def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig) -> Mot
     it, so each bone keeps the original's twist. Joints
     without a role (fingers, twist bones, extra spine joints, toe ends) keep their local rotations, every
     joint keeps its local offsets, and the root moves with the hips. The result has ``original``'s
-    skeleton, frames and fps.
+    skeleton, frames and fps. ``offset``: where ``original``'s first frame lies in ``before``'s frames (a span
+    of a long take: ``before`` and ``after`` may start earlier, by this many of their frames).
     """
     if original.skeleton.names != rig.skeleton.names:
         raise RetargetError("carry_edit: the motion's skeleton is not the rig's skeleton")
     change, shift = canonical_change(before, after)
     # the change at each of the original's frame times
-    t = (torch.arange(original.num_frames, dtype=torch.float64) * (before.fps / original.fps)).clamp(max=before.num_frames - 1)
+    t = (torch.arange(original.num_frames, dtype=torch.float64) * (before.fps / original.fps) + offset).clamp(
+        min=0, max=before.num_frames - 1)
     i0 = t.floor().long()
     i1 = (i0 + 1).clamp(max=before.num_frames - 1)
     w = (t - i0).float()
@@ -336,14 +338,26 @@ def carry_edit(original: Motion, before: Motion, after: Motion, rig: Rig) -> Mot
     return Motion(sk, lrot, lpos, original.fps)
 
 
-def place_on_floor(motion: Motion, spec: CanonicalSpec = CANONICAL, percentile: float = 0.05) -> Motion:
-    """Shift a canonical motion vertically so its feet meet y = 0 (robust to a few low frames)."""
+def lowest_feet(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """Per frame ``(T,)``, the lowest foot's toe-level height of a canonical motion (:func:`place_on_floor`'s
+    input; a long take's is gathered a span at a time)."""
     gpos = motion.global_positions()
     rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)
     feet = list(spec.feet)
     clearance = gpos[:, feet, 1] - (rest[feet, 1] - rest[feet, 1].min())  # (T, 4) toe-level estimate
-    lowest = clearance.min(dim=1).values
-    shift = torch.quantile(lowest, percentile) - (rest[feet, 1].min() - rest[:, 1].min())
+    return clearance.min(dim=1).values
+
+
+def floor_shift(lowest: torch.Tensor, spec: CanonicalSpec = CANONICAL, percentile: float = 0.05) -> torch.Tensor:
+    """How far :func:`place_on_floor` lowers the root, from every frame's :func:`lowest_feet` ``(T,)``."""
+    rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)
+    feet = list(spec.feet)
+    return torch.quantile(lowest, percentile) - (rest[feet, 1].min() - rest[:, 1].min())
+
+
+def place_on_floor(motion: Motion, spec: CanonicalSpec = CANONICAL, percentile: float = 0.05) -> Motion:
+    """Shift a canonical motion vertically so its feet meet y = 0 (robust to a few low frames)."""
+    shift = floor_shift(lowest_feet(motion, spec), spec, percentile)
     lpos = motion.lpos.clone()
     lpos[:, 0, 1] -= shift
     return Motion(motion.skeleton, motion.lrot, lpos, motion.fps)

@@ -406,6 +406,8 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
               f"{tempo}{extra}{skate})")
         if info.get("preview_note"):
             print(f"    note: {info['preview_note']}", file=sys.stderr)
+        if info.get("stream_note"):
+            print(f"    note: {info['stream_note']}", file=sys.stderr)
     return failed
 
 

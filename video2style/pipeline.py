@@ -379,12 +379,20 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     (0.7: slower, more frames; the path is the same)."""
     t0 = time.time()
     speed = resolve_tempo(style, tempo)
+    from video2style.long_takes import LONG_TAKE_SECONDS, apply_long_bvh, is_long_take
+
+    long_take = is_long_take(path)
+    if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
+        return apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
     clip = warp_clip(read_clip(path, joint_map), speed)
     result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize)
     decided["tempo"] = speed
     ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0}
+    if long_take:
+        info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
+                               "applied a span at a time only at --tempo 1; memory grows with this take")
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
@@ -460,27 +468,37 @@ def _write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path,
         outputs.append(str(Path(out_dir) / name))
     info = {"output": outputs[0] if len(outputs) == 1 else outputs}
     if preview:
-        from motioncore.kinematics import fk
-        from motioncore.render import Panel, render_video, twist_markers
+        info.update(write_preview(clip, written, out_dir, extra, made))
+    return info
 
-        sk = CANONICAL.skeleton
 
-        def panel(m: Motion, label: str) -> Panel:
-            grot, gpos = fk(m.lrot, m.lpos, sk.parents)
-            return Panel(gpos, sk.parents, label, names=sk.names, markers=twist_markers(grot, sk.offsets, sk.parents))
+def write_preview(clip: Clip, written: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]],
+                  made: list[Path]) -> dict:
+    """The preview mp4 and player data of :func:`write_outputs` (content | extra panels | ``written``); the paths
+    made are added to ``made``. Returns ``player``, ``preview`` and ``preview_note`` (when cut short)."""
+    stem = Path(clip.path).stem
+    info = {}
+    from motioncore.kinematics import fk
+    from motioncore.render import Panel, render_video, twist_markers
 
-        from video2style.preview import MAX_PREVIEW_SECONDS
+    sk = CANONICAL.skeleton
 
-        shown = [(m, label) for m, label in [(clip.canonical, "content"), *extra, *written]]
-        if clip.canonical.duration > MAX_PREVIEW_SECONDS:
-            shown = [(m.slice(0, int(MAX_PREVIEW_SECONDS * m.fps)), label) for m, label in shown]
-            info["preview_note"] = f"the preview shows the first {MAX_PREVIEW_SECONDS:g} s of {clip.canonical.duration:.0f} s"
-        panels = [panel(m, label) for m, label in shown]
-        from video2style.results_page import write_player_data
+    def panel(m: Motion, label: str) -> Panel:
+        grot, gpos = fk(m.lrot, m.lpos, sk.parents)
+        return Panel(gpos, sk.parents, label, names=sk.names, markers=twist_markers(grot, sk.offsets, sk.parents))
 
-        player = Path(out_dir) / f"{stem}_player.js"
-        info["player"] = str(write_player_data(player, str(player.resolve()), shown))
-        made.append(player)
-        size = (360, 360) if len(panels) <= 4 else (280, 280)
-        info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
+    from video2style.preview import MAX_PREVIEW_SECONDS
+
+    shown = [(m, label) for m, label in [(clip.canonical, "content"), *extra, *written]]
+    if clip.canonical.duration > MAX_PREVIEW_SECONDS:
+        shown = [(m.slice(0, int(MAX_PREVIEW_SECONDS * m.fps)), label) for m, label in shown]
+        info["preview_note"] = f"the preview shows the first {MAX_PREVIEW_SECONDS:g} s of {clip.canonical.duration:.0f} s"
+    panels = [panel(m, label) for m, label in shown]
+    from video2style.results_page import write_player_data
+
+    player = Path(out_dir) / f"{stem}_player.js"
+    info["player"] = str(write_player_data(player, str(player.resolve()), shown))
+    made.append(player)
+    size = (360, 360) if len(panels) <= 4 else (280, 280)
+    info["preview"] = str(render_video(panels, Path(out_dir) / f"{stem}_preview.mp4", CANONICAL.fps, size=size, progress=False))
     return info

@@ -1,0 +1,182 @@
+"""Long BVH takes applied a span at a time (issue 25): span reads equal the whole read, the span writer writes
+what write_bvh writes (or nothing), and a streamed apply equals the whole-clip apply."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import torch
+
+import transfer.apply as apply_mod
+from motioncore.bvh import BvhError, read_bvh, write_bvh
+from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
+from motioncore.motion import Motion, resample, resample_span
+from tests.helpers import cmu_like_skeleton
+from transfer.shipped import SHIPPED as WEIGHTS
+from video2style import long_takes
+
+
+def _walk(frames: int, fps: float) -> Motion:
+    """A walk-like take on a CMU-like skeleton: swinging legs and arms, a turning path."""
+    sk = cmu_like_skeleton()
+    t = torch.arange(frames, dtype=torch.float32) / fps
+    from motioncore import quat
+
+    angles = torch.zeros(frames, sk.num_joints, 3)
+    for j in range(1, sk.num_joints):
+        angles[:, j, 0] = 0.3 * torch.sin(2 * math.pi * 0.9 * t + j)
+    lrot = quat.from_euler(angles, "ZXY")
+    lrot[:, 0] = quat.mul(quat.from_yaw(0.1 * t), lrot[:, 0])
+    lpos = sk.offsets.expand(frames, -1, -1).clone()
+    lpos[:, 0, 0] = torch.cumsum(torch.sin(0.1 * t), 0) * 1.2 / fps
+    lpos[:, 0, 1] = 0.95 + 0.02 * torch.sin(4 * math.pi * 0.9 * t)
+    lpos[:, 0, 2] = torch.cumsum(torch.cos(0.1 * t), 0) * 1.2 / fps
+    return Motion(sk, lrot, lpos, fps)
+
+
+def test_span_reads_equal_the_whole_read(tmp_path):
+    path = tmp_path / "take.bvh"
+    write_bvh(path, _walk(97, 30.0))
+    text = path.read_text()
+    # blank lines between frames and CRLF line ends are read as the whole reader reads them
+    head, body = text.split("Frame Time:")
+    lines = body.split("\n")
+    odd = tmp_path / "odd.bvh"
+    odd.write_bytes((head + "Frame Time:" + "\n\n".join(lines[:40]) + "\n  \n" + "\n".join(lines[40:])).replace(
+        "\n", "\r\n").encode())
+    for p in (path, odd):
+        whole, layout = read_bvh(p)
+        frames = BvhFrames(p)
+        assert (frames.num_frames, frames.fps, frames.layout) == (97, whole.fps, layout)
+        assert BvhFrames.declared(p) == (97, pytest.approx(1 / 30, abs=1e-7))
+        for a, b in ((0, 97), (0, 1), (5, 41), (40, 41), (60, 97)):
+            part = frames[a:b]
+            assert part.skeleton.names == whole.skeleton.names
+            assert torch.equal(part.lrot, whole.lrot[a:b]) and torch.equal(part.lpos, whole.lpos[a:b])
+
+
+def test_span_reader_refuses_a_wrong_frame_count_and_bad_numbers(tmp_path):
+    path = tmp_path / "take.bvh"
+    write_bvh(path, _walk(20, 30.0))
+    text = path.read_text()
+    short = tmp_path / "short.bvh"
+    short.write_text(text.replace("Frames: 20", "Frames: 21"))
+    with pytest.raises(BvhError, match="short.bvh: declared 21 frames, found 20"):
+        BvhFrames(short)
+    bad = tmp_path / "bad.bvh"
+    rows = text.splitlines()
+    rows[-3] = rows[-3].replace(rows[-3].split()[4], "abc", 1)
+    bad.write_text("\n".join(rows) + "\n")
+    frames = BvhFrames(bad)
+    assert torch.isfinite(frames[0:10].lrot).all()
+    with pytest.raises(BvhError, match="bad.bvh: frames 11-20"):
+        frames[10:20]
+
+
+def test_span_resampling_equals_the_whole(tmp_path):
+    m = _walk(50, 30.0)
+    whole = resample(m, 20.0)
+    for a, b in ((0, 7), (7, 20), (20, whole.num_frames)):
+        s0 = max(0, math.floor(a * 1.5) - 1)
+        s1 = min(50, math.floor((b - 1) * 1.5) + 3)
+        part = resample_span(m.slice(s0, s1), 20.0, a, b, first=s0, total=50)
+        assert torch.equal(part.lrot, whole.lrot[a:b]) and torch.equal(part.lpos, whole.lpos[a:b])
+    with pytest.raises(ValueError, match="expected frames"):
+        resample_span(m.slice(10, 20), 20.0, 0, 5, first=10, total=50)
+
+
+def test_span_writer_writes_what_write_bvh_writes_or_nothing(tmp_path):
+    m = _walk(23, 30.0)
+    write_bvh(tmp_path / "whole.bvh", m)
+    _, layout = read_bvh(tmp_path / "whole.bvh")
+    with BvhSpanWriter(tmp_path / "spans.bvh", m.skeleton, layout, 23, m.fps) as w:
+        for a in range(0, 23, 5):
+            w.append(m.slice(a, min(a + 5, 23)))
+    assert (tmp_path / "spans.bvh").read_text() == (tmp_path / "whole.bvh").read_text()
+    with (pytest.raises(ValueError, match="expected 23 frames, wrote 10; nothing written"),
+          BvhSpanWriter(tmp_path / "few.bvh", m.skeleton, layout, 23, m.fps) as w):
+        w.append(m.slice(0, 10))
+    with (pytest.raises(RuntimeError, match="disk"),
+          BvhSpanWriter(tmp_path / "failed.bvh", m.skeleton, layout, 23, m.fps) as w):
+        w.append(m.slice(0, 10))
+        raise RuntimeError("disk full")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["spans.bvh", "whole.bvh"]
+
+
+shipped = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), reason="shipped weights not present")
+
+
+@pytest.fixture(scope="module")
+def style_and_model(tmp_path_factory):
+    from transfer.style import Style, StyleConfig, style_model
+    from video2style.demo import SAMPLES
+    from video2style.pipeline import learn_file, load_models
+
+    torch.set_num_threads(1)
+    out = tmp_path_factory.mktemp("style") / "s.v2s"
+    mp = pytest.MonkeyPatch()
+    mp.setenv("VIDEO2STYLE_DATA", str(out.parent / "no-cache"))  # the bundled content bank
+    try:
+        learn_file(SAMPLES / "walk_prior.bvh", out, "s", None, StyleConfig(iterations=2, pair_steps=3),
+                   progress=lambda s: None, allow_partial=True)
+    finally:
+        mp.undo()
+    style = Style.load(out)
+    return style, style_model(load_models().prior, style)
+
+
+@shipped
+@pytest.mark.parametrize("neutralize", ["never", "always"])
+def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style_and_model, neutralize):
+    from video2style.pipeline import apply_file
+
+    style, model = style_and_model
+    clip = tmp_path / "take.bvh"
+    write_bvh(clip, _walk(450, 30.0))  # 300 canonical frames: 5 windows
+    monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 3 batches, finished across the spans' ends
+    whole = apply_file(style, model, clip, tmp_path / "whole", preview=False, neutralize=neutralize)
+    assert "streamed" not in whole
+    monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)  # 15 s: a long take now
+    monkeypatch.setattr(long_takes, "SPAN_FRAMES", 45)
+    monkeypatch.setattr(long_takes, "MARGIN", 20)
+    streamed = apply_file(style, model, clip, tmp_path / "streamed", preview=True, neutralize=neutralize)
+    assert streamed["streamed"] == 7 and "span" in streamed["stream_note"]
+    assert streamed["neutralized"] == whole["neutralized"] == (neutralize == "always")
+    a, la = read_bvh(whole["output"])
+    b, lb = read_bvh(streamed["output"])
+    assert (b.num_frames, b.fps, lb) == (a.num_frames, a.fps, la)
+    text_a, text_b = Path(whole["output"]).read_text(), Path(streamed["output"]).read_text()
+    assert text_a.split("MOTION")[0] == text_b.split("MOTION")[0]
+    assert text_a.splitlines()[len(text_a.split("MOTION")[0].splitlines()):][:3] == \
+        text_b.splitlines()[len(text_b.split("MOTION")[0].splitlines()):][:3]  # MOTION, Frames:, Frame Time:
+    gap = (a.global_positions() - b.global_positions()).norm(dim=-1).max()
+    assert gap < 0.0005, f"{100 * gap:.4f} cm"
+    assert Path(streamed["preview"]).is_file() and Path(streamed["player"]).is_file()
+
+
+@shipped
+def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_model):
+    from video2style.pipeline import apply_file
+
+    style, model = style_and_model
+    clip = tmp_path / "take.bvh"
+    write_bvh(clip, _walk(450, 30.0))
+    calls = []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise OSError("No space left on device")
+        return real(*args, **kwargs)
+
+    real = long_takes.carry_edit
+    monkeypatch.setattr(long_takes, "carry_edit", failing)
+    monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)
+    monkeypatch.setattr(long_takes, "SPAN_FRAMES", 45)
+    monkeypatch.setattr(long_takes, "MARGIN", 20)
+    out = tmp_path / "out"
+    with pytest.raises(OSError, match="No space"):
+        apply_file(style, model, clip, out, neutralize="never")
+    assert len(calls) == 3 and (not out.exists() or list(out.iterdir()) == [])
