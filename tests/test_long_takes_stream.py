@@ -180,3 +180,16 @@ def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_mode
     with pytest.raises(OSError, match="No space"):
         apply_file(style, model, clip, out, neutralize="never")
     assert len(calls) == 3 and (not out.exists() or list(out.iterdir()) == [])
+
+
+@shipped
+def test_a_tempo_keeps_the_whole_clip_path_and_says_so(tmp_path, monkeypatch, style_and_model):
+    from video2style.pipeline import apply_file
+
+    style, model = style_and_model
+    clip = tmp_path / "take.bvh"
+    write_bvh(clip, _walk(300, 30.0))
+    monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 5.0)
+    info = apply_file(style, model, clip, tmp_path / "out", preview=False, neutralize="never", tempo="0.9")
+    assert "streamed" not in info and info["tempo"] == 0.9
+    assert "applied whole (--tempo 0.9)" in info["stream_note"]
