@@ -14,7 +14,6 @@ from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
-from transfer.shipped import SHIPPED as WEIGHTS  # noqa: F401 - the shipped folder, for tests
 from transfer.shipped import weights_path
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
