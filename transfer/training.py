@@ -38,7 +38,9 @@ def train_loop(checkpoint: RunCheckpoint, iterate: Callable[[], dict], log_path:
     log_path.parent.mkdir(parents=True, exist_ok=True)
     start = last_ckpt = time.time()
     elapsed0 = checkpoint.elapsed
-    bar = tqdm(total=max_steps, initial=checkpoint.step, disable=not progress, unit="step", dynamic_ncols=True)
+    # no step budget (the default 10**9): a count and a rate, not an ETA of a hundred thousand hours
+    bar = tqdm(total=max_steps if max_steps < 10**9 else None, initial=checkpoint.step, disable=not progress,
+               unit="step", dynamic_ncols=True)
     writer_file = open(log_path, "a", newline="")  # noqa: SIM115 - closed in the finally below
     writer = None
     try:
