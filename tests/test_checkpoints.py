@@ -107,3 +107,17 @@ def test_update_ema_warms_up_then_follows_decay():
     assert float(ema.weight) == pytest.approx(0.9)
     update_ema(ema, model, decay=0.5, step=1000)  # d = 0.5
     assert float(ema.weight) == pytest.approx(0.95)
+
+
+def test_lr_factor_warms_up_holds_then_decays_to_its_floor():
+    from transfer.training import lr_factor
+
+    assert lr_factor(0, warmup=4) == 0.25
+    assert lr_factor(3, warmup=4) == 1.0
+    assert lr_factor(10_000, warmup=4) == 1.0  # no decay asked for: constant
+    kw = {"warmup": 4, "decay_start": 100, "decay_steps": 10, "final": 0.1}
+    assert lr_factor(99, **kw) == 1.0
+    assert lr_factor(100, **kw) == 1.0
+    assert abs(lr_factor(105, **kw) - 0.55) < 1e-12
+    assert abs(lr_factor(110, **kw) - 0.1) < 1e-12
+    assert abs(lr_factor(10_000, **kw) - 0.1) < 1e-12

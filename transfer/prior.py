@@ -28,6 +28,11 @@ class PriorTrainConfig:
     window: int = 80  # frames (4 s at 20 fps); Bandai-2 clips average 4.4 s
     lr: float = 2e-4
     warmup: int = 500
+    # warmup-stable-decay: the rate falls linearly from lr to lr * lr_final over decay_steps steps from
+    # decay_start (the campaign's recipe: 24,000 steps at lr, then 8,000 steps of decay; issue 24)
+    decay_start: int = 24_000
+    decay_steps: int = 8_000
+    lr_final: float = 0.05
     ema: float = 0.999
     text_drop: float = 0.1
     velocity_weight: float = 1.0
@@ -133,7 +138,8 @@ def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_min
     text = caption_embeddings(data).to(device)
     model = Denoiser(DenoiserConfig(width=config.width, layers=config.layers, heads=config.heads, ff=config.ff, dropout=config.dropout))
     model.to(device)
-    trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema)
+    trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema,
+                      decay=(config.decay_start, config.decay_steps, config.lr_final))
     trainer.resume(explicit or {})
     gen = torch.Generator().manual_seed(config.seed * 1000003 + trainer.step)
     scheduler = DiffusionScheduler(model.config.num_train_steps)

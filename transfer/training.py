@@ -66,12 +66,24 @@ def train_loop(checkpoint: RunCheckpoint, iterate: Callable[[], dict], log_path:
         checkpoint.save()
 
 
+def lr_factor(step: int, warmup: int, decay_start: int = 0, decay_steps: int = 0, final: float = 1.0) -> float:
+    """The learning rate's multiplier at ``step`` (0-based): linear warmup over ``warmup`` steps, constant, then
+    (when ``decay_steps`` > 0) a linear fall from 1 at ``decay_start`` to ``final`` at ``decay_start + decay_steps``,
+    ``final`` after (warmup-stable-decay)."""
+    factor = min(1.0, (step + 1) / max(1, warmup))
+    if decay_steps > 0 and step >= decay_start:
+        done = min(1.0, (step - decay_start) / decay_steps)
+        factor *= 1.0 - (1.0 - final) * done
+    return factor
+
+
 class Trainer:
-    """Runs ``loss_fn(model, step) -> (loss tensor, dict of logged floats)`` with AdamW (linear warmup,
-    gradients clipped to norm 1) and an EMA copy, until a step or time limit. ``trainer.step``: steps done."""
+    """Runs ``loss_fn(model, step) -> (loss tensor, dict of logged floats)`` with AdamW (:func:`lr_factor`'s
+    schedule, gradients clipped to norm 1) and an EMA copy, until a step or time limit. ``trainer.step``: steps
+    done. ``decay``: ``(decay_start, decay_steps, final)`` for :func:`lr_factor`, None for a constant rate."""
 
     def __init__(self, model: torch.nn.Module, config, out_dir: Path, lr: float, warmup: int = 500, ema: float = 0.999,
-                 weight_decay: float = 0.0):
+                 weight_decay: float = 0.0, decay: tuple[int, int, float] | None = None):
         self.model = model
         self.config = config
         self.out_dir = Path(out_dir)
@@ -81,7 +93,7 @@ class Trainer:
             p.requires_grad_(False)
         params = [p for p in model.parameters() if p.requires_grad]
         self.opt = torch.optim.AdamW(params, lr=lr, weight_decay=weight_decay)
-        self.lr, self.warmup = lr, warmup
+        self.lr, self.warmup, self.decay = lr, warmup, decay or (0, 0, 1.0)
         names = {id(p): n for n, p in model.named_parameters()}
         self.checkpoint = RunCheckpoint(self.out_dir / "checkpoint.safetensors", config,
                                         {"model": model, "ema": self.ema}, {"": self.opt}, names)
@@ -111,7 +123,7 @@ class Trainer:
         def iterate() -> dict:
             loss, logs = loss_fn(self.model, self.step)
             for g in self.opt.param_groups:
-                g["lr"] = self.lr * min(1.0, (self.step + 1) / max(1, self.warmup))
+                g["lr"] = self.lr * lr_factor(self.step, self.warmup, *self.decay)
             self.opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(self.model.parameters(), 1.0)

@@ -581,6 +581,16 @@ def _data_inputs(data: Path) -> list[tuple[str, Path]]:
                                             for name in ("features.safetensors", "clips.json", "split.json")]
 
 
+def _non_negative_int(v: str) -> int:
+    try:
+        x = int(v)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {v}") from None
+    if x < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {v}")
+    return x
+
+
 def _positive_int(v: str) -> int:
     try:
         x = int(v)
@@ -785,7 +795,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-steps", type=int, default=10**9, help="stop at this many optimiser steps in all (default: %(default)s)")
     for name, typ in [("width", _positive_int), ("layers", _positive_int), ("heads", _positive_int), ("ff", _positive_int),
                       ("batch_size", _positive_int), ("window", _positive_int), ("lr", _finite_positive),
-                      ("seed", _style_option("seed"))]:
+                      ("seed", _style_option("seed")), ("decay_start", _non_negative_int), ("decay_steps", _non_negative_int)]:
         t.add_argument(f"--{name.replace('_', '-')}", dest=name, type=typ, default=None,
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
