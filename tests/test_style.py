@@ -203,3 +203,26 @@ def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_
     assert torch.allclose(table, TextEncoder().encode(texts), atol=1e-5)  # regenerate: transfer.text_encoder.write_caption_table
     lazy.encode(["a person juggles, pirate style"])
     assert lazy.loaded
+
+
+def test_reconstruction_loss_over_several_windows_is_their_mean():
+    """L_rec on a batch of windows (StyleConfig.rec_windows) averages the windows' losses: with a model that
+    predicts zeros the noise does not matter, so the batch's loss is the mean of the single-window ones."""
+    import pytest
+
+    from transfer.scheduler import DiffusionScheduler
+    from transfer.style import reconstruction_loss
+
+    class Zeros(torch.nn.Module):
+        def forward(self, x_t, t, text=None, valid=None):
+            assert t.shape == (x_t.shape[0],)
+            return torch.zeros_like(x_t)
+
+    torch.manual_seed(0)
+    a, b = torch.randn(2, 1, 40, FEATURES.dim).unbind(0)
+    sched, cfg = DiffusionScheduler(), StyleConfig()
+    one = [reconstruction_loss(Zeros(), sched, w, w, cfg, torch.Generator().manual_seed(1)) for w in (a, b)]
+    both = reconstruction_loss(Zeros(), sched, torch.cat([a, b]), torch.cat([a, b]), cfg, torch.Generator().manual_seed(1))
+    assert torch.allclose(both, (one[0] + one[1]) / 2, atol=1e-6)
+    with pytest.raises(ValueError, match="expected m_n and m_s"):
+        reconstruction_loss(Zeros(), sched, a, torch.cat([a, b]), cfg, torch.Generator())

@@ -249,9 +249,9 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
             stopped_by = "time"
             break
         with record_function("learn: L_rec"):
-            s = _windows(example.shape[0], config.window, 1, gen)[0]
-            loss_rec = reconstruction_loss(model, scheduler, pair[None, s:s + config.window],
-                                           example[None, s:s + config.window], config, gen)
+            starts = _windows(example.shape[0], config.window, config.rec_windows, gen)
+            loss_rec = reconstruction_loss(model, scheduler, torch.stack([pair[s:s + config.window] for s in starts]),
+                                           torch.stack([example[s:s + config.window] for s in starts]), config, gen)
         with record_function("learn: L_s"):  # neutral content, stylised, must read as "<caption>, <style> style" (eq. 11)
             idx = [neutral[i] for i in torch.randint(len(neutral), (config.content_batch,), generator=gen).tolist()]
             xs = torch.stack([_crop(dataset.clip(i), config.window, gen) for i in idx]).to(device)
@@ -320,14 +320,16 @@ def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | No
 
 def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor, m_s: torch.Tensor, config: StyleConfig,
                         generator: torch.Generator) -> torch.Tensor:
-    """L_rec (Hu et al. eq. 10): the neutral window ``m_n (1, L, D)`` noised K steps must denoise to the example
-    window ``m_s (1, L, D)`` at every DDIM step from K to 0. Both on the model's device, with the same root path
+    """L_rec (Hu et al. eq. 10): the neutral windows ``m_n (B, L, D)`` noised K steps must denoise to the example
+    windows ``m_s (B, L, D)`` at every DDIM step from K to 0. Both on the model's device, with the same root path
     (the pair is made on the example's path): the unroll inpaints the example's.
 
     Each step's input depends on the previous prediction only through a detached value, so the unroll
     (:func:`transfer.sampling.denoising_steps`) runs without gradients (and without dropout) and the model then
     sees all the steps' inputs in one batched pass.
     """
+    if m_n.ndim != 3 or m_n.shape != m_s.shape:
+        raise ValueError(f"reconstruction_loss: expected m_n and m_s (B, L, D) alike, got {tuple(m_n.shape)} and {tuple(m_s.shape)}")
     k = config.transfer_step
     steps = scheduler.set_timesteps(config.transfer_steps, k).tolist()
     y = noise_keeping(scheduler, m_n, torch.randn(m_n.shape, generator=generator).to(m_n.device), k, TRAJECTORY)
@@ -337,8 +339,9 @@ def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor,
         unroll = denoising_steps(model, scheduler, y, k, config.transfer_steps, inpaint=(m_s, TRAJECTORY))
         inputs = [x_t for _, x_t in itertools.islice(unroll, len(steps))]
     model.train(training)
-    target = m_s.expand(len(steps), -1, -1)
-    x0 = overwrite(model(torch.cat(inputs), torch.tensor(steps, device=m_s.device)), target, TRAJECTORY)
+    target = m_s.repeat(len(steps), 1, 1)  # torch.cat(inputs) is step-major: B windows per step
+    t = torch.tensor(steps, device=m_s.device).repeat_interleave(m_s.shape[0])
+    x0 = overwrite(model(torch.cat(inputs), t), target, TRAJECTORY)
     return ((x0 - target) ** 2).mean()
 
 

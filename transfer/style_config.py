@@ -22,6 +22,7 @@ class StyleConfig:
     # encoders never saw the words carry no motion meaning (docs/RESULTS.md, "Styles the models never saw")
     content_batch: int = 8
     window: int = 80
+    rec_windows: int = 1  # windows of the example (with their pair's) per L_rec iteration, each with its own noise
     seed: int = 0
     pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
     lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
@@ -42,3 +43,6 @@ class StyleConfig:
     # joint-position channels ("positions": a style's difference is linear there; in 6D rotations a large one swings
     # a limb), or "guarded": rotations except for a limb whose two channel sets disagree (motioncore.ik_fit)
     lambda_dir: float = 1.0  # word-free: the change in the motion encoder's space points as example - pair does
+    limb_guard: float = 0.08  # apply: metres; a hand or foot whose time-mean place (hips' facing frame) lies further than
+    # this off the segment from the content's place to the example's is drawn back by IK, softly, never left past 1.5x
+    # (motioncore.limbs.guard_limbs); 0: off (the ablation)

@@ -30,12 +30,13 @@ CONFIG_RANGES = {
     "pair_step": (int, 1, 999), "pair_steps": (int, 1, 100), "guidance": (float, 0.0, 20.0),
     "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 50), "rank": (int, 1, MAX_RANK),
     "lr": (float, 0.0, 1.0), "iterations": (int, 1, MAX_ITERATIONS), "max_seconds": (float, 0.0, 7 * 86400.0),
-    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 64), "window": (int, 8, 400),
+    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 64), "window": (int, 8, 400), "rec_windows": (int, 1, 16),
     "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
     "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
     "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
     "lambda_stat": (float, 0.0, 100.0), "stat_std": (bool, None, None), "stat_reference": (str, ("pair", "neutral"), None),
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
+    "limb_guard": (float, 0.0, 1.0),
 }
 
 

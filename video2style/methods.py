@@ -53,5 +53,8 @@ VARIANTS = {
     "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
     "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
     "ours-dir1-ls0-s3": {"lambda_dir": 1.0, "lambda_s": 0.0, "delta_smoothing": 3.0},
+    "ours-no-guard": {"limb_guard": 0.0},  # no stray-limb guard at apply (motioncore.limbs.guard_limbs)
+    "ours-w4": {"rec_windows": 4},  # L_rec on four windows of the example per iteration
+    "ours-w4-s11": {"rec_windows": 4, "style_scale": 1.1},
 }
 METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
