@@ -301,6 +301,20 @@ def test_without_blender_one_line_names_the_file_and_both_routes(tmp_path, monke
     assert not list((tmp_path / "out").glob("walk*"))
 
 
+def test_a_blender_that_never_answers_is_stopped_with_one_line(tmp_path, monkeypatch):
+    import sys
+    import time
+
+    hung = [sys.executable, "-c", "import sys, time; sys.stdin.readline(); time.sleep(120)"]
+    monkeypatch.setattr(interchange, "blender_command", lambda: hung)
+    blender = interchange.Blender(timeout=1.0)
+    t0 = time.time()
+    with pytest.raises(interchange.InterchangeError, match=r"walk\.fbx: Blender gave no answer within 1 s"):
+        blender.call({"op": "read"}, tmp_path / "walk.fbx")
+    assert time.time() - t0 < 30
+    assert blender._proc is None  # ended, not left running
+
+
 @needs_blender
 def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_path, converter, capsys):
     from video2style.cli import main

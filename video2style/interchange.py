@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import weakref
 from pathlib import Path
 
@@ -67,13 +68,18 @@ def blender_env() -> dict[str, str]:
     return env
 
 
+JOB_TIMEOUT_S = 600.0  # one file read or written; a Blender that answers nothing for this long is ended
+
+
 class Blender:
     """One headless Blender process answering jobs (see :mod:`video2style.blender_io`). Started on the
-    first :meth:`call`; :meth:`close` (or leaving a ``with`` block) ends it."""
+    first :meth:`call`; :meth:`close` (or leaving a ``with`` block) ends it. A job unanswered after
+    ``timeout`` seconds ends the process and raises :class:`InterchangeError`."""
 
-    def __init__(self):
+    def __init__(self, timeout: float = JOB_TIMEOUT_S):
         self._proc: subprocess.Popen | None = None
         self._log = None
+        self.timeout = timeout
 
     def _start(self, path: Path) -> None:
         cmd = blender_command()
@@ -94,15 +100,29 @@ class Blender:
             proc.stdin.flush()
         except (BrokenPipeError, OSError):
             raise InterchangeError(f"{path}: Blender ended early: {self._tail()}") from None
-        for line in proc.stdout:
-            if line.startswith("V2S-RESULT "):
-                out = json.loads(line[len("V2S-RESULT "):])
-                if not out.pop("ok"):
-                    error = " ".join(str(out["error"]).split())  # one line, whatever Blender said
-                    raise InterchangeError(error if error.startswith(str(path)) else f"{path}: {error}")
-                return out
+        expired = threading.Event()
+
+        def stop() -> None:  # a hung Blender: killed, its output ends and so does the loop below
+            expired.set()
+            proc.kill()
+
+        watchdog = threading.Timer(self.timeout, stop)
+        watchdog.daemon = True
+        watchdog.start()
+        try:
+            for line in proc.stdout:
+                if line.startswith("V2S-RESULT "):
+                    out = json.loads(line[len("V2S-RESULT "):])
+                    if not out.pop("ok"):
+                        error = " ".join(str(out["error"]).split())  # one line, whatever Blender said
+                        raise InterchangeError(error if error.startswith(str(path)) else f"{path}: {error}")
+                    return out
+        finally:
+            watchdog.cancel()
         tail = self._tail()
         self.close()
+        if expired.is_set():
+            raise InterchangeError(f"{path}: Blender gave no answer within {self.timeout:g} s and was stopped")
         raise InterchangeError(f"{path}: Blender ended without an answer: {tail}")
 
     def _tail(self) -> str:
