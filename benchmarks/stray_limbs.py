@@ -2,10 +2,12 @@
 
     python benchmarks/stray_limbs.py --style S.v2s [S2.v2s ...] --content A.bvh [B.bvh ...] [--strength 0.5]
     python benchmarks/stray_limbs.py --learn EXAMPLE.mp4 [EXAMPLE.bvh ...] --content ... [--styles-dir DIR]
+    python benchmarks/stray_limbs.py ... --limb-guard 0     # without the apply-time guard (the ablation)
 
 For each style x content clip, the result is made as ``apply`` makes it (:func:`video2style.pipeline.stylize_motion`),
 and for each hand and foot its time-mean place in the hips' facing frame (canonical body) is compared with the
-segment from the content's place to the example's (:func:`evaluation.metrics.limb_stray`). Prints the stray of
+segment from the content's place to the example's (:func:`evaluation.metrics.limb_stray`, after the
+style's stray-limb guard: ``StyleConfig.limb_guard``). Prints the stray of
 each limb in cm and the worst per result; target: under 15 cm. ``--learn`` learns each example with the
 defaults first (style files kept in ``--styles-dir``, reused when present).
 """
@@ -25,6 +27,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--decode", choices=["rotations", "guarded", "positions"],
                     help="apply with this decoding instead of the style's own (StyleConfig.decode)")
+    ap.add_argument("--limb-guard", type=float,
+                    help="apply with this stray-limb guard (metres; 0: off) instead of the style's own (StyleConfig.limb_guard)")
     args = ap.parse_args()
 
     import torch
@@ -49,6 +53,8 @@ def main() -> None:
         style = Style.load(sp)
         if args.decode:
             style.meta["config"]["decode"] = args.decode
+        if args.limb_guard is not None:
+            style.meta["config"]["limb_guard"] = args.limb_guard
         model = style_model(m.prior, style)
         example = style.example.float()
         for clip in clips:

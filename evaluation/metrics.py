@@ -11,6 +11,7 @@ import numpy as np
 import scipy.linalg
 import torch
 
+from motioncore.limbs import LIMBS, limb_places, limb_stray  # noqa: F401 - the stray measure, re-exported
 from motioncore.representation import FEATURES, decode_positions, foot_contacts
 from motioncore.skeleton import CANONICAL, CanonicalSpec
 
@@ -150,27 +151,3 @@ def foot_contact_agreement(feats_a: torch.Tensor | Sequence[torch.Tensor], feats
     return agree / total
 
 
-LIMBS = ("Hand_L", "Hand_R", "Foot_L", "Foot_R")  # the end effectors whose carriage a style may change
-
-
-def limb_places(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
-    """Time-mean place of each of :data:`LIMBS` in the hips' facing frame, ``feats (T, D)`` raw (not
-    normalised) model features on the canonical skeleton -> ``(4, 3)`` metres. Canonical motions share the
-    canonical body, so places compare across clips without further scaling."""
-    if feats.ndim != 2 or feats.shape[1] != FEATURES.dim:
-        raise ValueError(f"limb_places: expected raw features (T, {FEATURES.dim}), got {tuple(feats.shape)}")
-    pos = feats[:, FEATURES.positions].reshape(feats.shape[0], spec.num_joints - 1, 3)  # joints 1.. (root excluded)
-    rows = [spec.skeleton.names.index(n) - 1 for n in LIMBS]
-    return pos[:, rows].mean(0)
-
-
-def limb_stray(content: torch.Tensor, example: torch.Tensor, result: torch.Tensor) -> torch.Tensor:
-    """How far each limb's time-mean place in ``result`` lies from the segment between its place in
-    ``content`` and in ``example`` (all raw features ``(T, D)``, any lengths) -> ``(4,)`` metres, in the
-    order of :data:`LIMBS`. 0: the style moved the limb from where the content holds it towards where the
-    example holds it (or left it); larger: it put the limb somewhere neither holds it."""
-    a, b, p = limb_places(content), limb_places(example), limb_places(result)
-    ab = b - a
-    t = ((p - a) * ab).sum(-1) / (ab * ab).sum(-1).clamp_min(1e-12)
-    nearest = a + t.clamp(0, 1)[:, None] * ab
-    return (p - nearest).norm(dim=-1)

@@ -160,34 +160,60 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
-def decoder(config: StyleConfig, reference: Motion | None = None):
+def decoder(config: StyleConfig, reference: Motion | None = None, example: torch.Tensor | None = None):
     """How a stylised result's features become a motion (``config.decode``): from the rotation channels
     (:func:`motioncore.representation.decode`), fitted to the position channels
     (:func:`motioncore.ik_fit.decode_via_positions`), or "guarded": the rotation channels except for a limb
     where the two disagree and the position fit is the smaller change from ``reference`` (the content the
     result was made from; :func:`motioncore.ik_fit.decode_guarded`). Each takes ``(feats, fps, start_yaw=,
-    start_xz=)``."""
+    start_xz=)``. With ``reference`` and ``example`` (the style example's raw features ``(T', D)``) and
+    ``config.limb_guard`` above 0, the decoded motion's stray limbs are then drawn back (:func:`guard_stray_limbs`)."""
     if config.decode == "rotations":
-        return decode
-    if config.decode == "guarded":
+        decode_fn = decode
+    elif config.decode == "guarded":
         from motioncore.ik_fit import decode_guarded
 
-        return functools.partial(decode_guarded, reference=reference)
-    if config.decode == "positions":
+        decode_fn = functools.partial(decode_guarded, reference=reference)
+    elif config.decode == "positions":
         from motioncore.ik_fit import decode_via_positions
 
-        return decode_via_positions
-    raise ValueError(f"decode: expected 'rotations', 'guarded' or 'positions', got {config.decode!r}")
+        decode_fn = decode_via_positions
+    else:
+        raise ValueError(f"decode: expected 'rotations', 'guarded' or 'positions', got {config.decode!r}")
+    if reference is None or example is None or config.limb_guard <= 0:
+        return decode_fn
+
+    def decode_guarding(feats: torch.Tensor, fps: float, **kwargs) -> Motion:
+        return guard_stray_limbs(decode_fn(feats, fps, **kwargs), reference, example, config)
+
+    return decode_guarding
+
+
+def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, config: StyleConfig) -> Motion:
+    """A decoded canonical ``result`` of ``content`` (same frames) with each hand and foot whose time-mean place
+    strays more than ``config.limb_guard`` metres off the segment from the content's place to the style
+    ``example``'s (raw features ``(T', D)``) drawn back towards it (:func:`motioncore.limbs.guard_limbs`); the
+    result itself when the guard is off (0) or no limb strays. Before the foot cleanup, which keeps contacts."""
+    from motioncore.limbs import guard_limbs, limb_places, motion_limb_places
+
+    if config.limb_guard <= 0:
+        return result
+    if result.num_frames != content.num_frames:
+        raise ValueError(f"guard_stray_limbs: expected a content of {result.num_frames} frames, got {content.num_frames}")
+    guarded, _ = guard_limbs(result, motion_limb_places(content), limb_places(example.float()), config.limb_guard)
+    return guarded
 
 
 def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, config: StyleConfig,
-                       step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True) -> Motion:
+                       step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True,
+                       example: torch.Tensor | None = None) -> Motion:
     """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
-    any device; the motion and ``mean``/``std`` on the CPU)."""
+    any device; the motion and ``mean``/``std`` on the CPU). ``example``: the style example's raw features
+    ``(T', D)``, for the stray-limb guard (``config.limb_guard``; none without it)."""
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
     out = apply_style_features(model, prior, (encode(content) - mean) / std, config, step, seed, neutral_text)
     out = out.mul_(std).add_(mean)
     p0 = content.global_positions()[:1].double()
-    result = decoder(config, reference=content)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
+    result = decoder(config, reference=content, example=example)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
                              start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
     return cleanup_feet(result, reference=content) if clean else result

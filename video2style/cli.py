@@ -316,6 +316,8 @@ def cmd_learn(args) -> None:
         config = replace(config, iterations=args.iterations)
     if args.seed is not None:
         config = replace(config, seed=args.seed)
+    if args.limb_guard is not None:
+        config = replace(config, limb_guard=args.limb_guard)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
@@ -717,6 +719,9 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--allow-partial", action="store_true",
                     help=f"keep a style cut short by --max-seconds or learned in fewer than {MIN_ITERATIONS} iterations")
     lr.add_argument("--seed", type=_style_option("seed"), help=f"random seed (default: {StyleConfig.seed})")
+    lr.add_argument("--limb-guard", type=_style_option("limb_guard"), metavar="METRES",
+                    help="at apply, a hand or foot whose mean place strays further than this from anywhere between the "
+                         f"content's and the example's is drawn back (default: {StyleConfig.limb_guard}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")

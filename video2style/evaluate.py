@@ -36,19 +36,19 @@ from motioncore.representation import decode, encode
 from video2style.methods import METHODS, VARIANTS
 
 APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing",
-                "decode")  # not used in learning
+                "decode", "limb_guard")  # not used in learning
 HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
-def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, decoder_for=lambda content: decode):
+def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, decoder_for=lambda content, example: decode):
     """Wrap a method returning normalised features so its output goes through decoding (``decoder_for(content
-    motion)`` gives the decode function: from the rotation channels by default, from the positions as ``apply
-    --method stgcn`` does, or as :func:`transfer.apply.decoder` says for a style), foot cleanup and encoding
-    again."""
+    motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
+    the positions as ``apply --method stgcn`` does, or as :func:`transfer.apply.decoder` says for a style, its
+    stray-limb guard included), foot cleanup and encoding again."""
     def transfer(content, style, style_label, content_label):
         out = features_fn(content, style, style_label, content_label)
         content_m = decode(content * std + mean)
-        out_m = decoder_for(content_m)(out * std + mean, content_m.fps)
+        out_m = decoder_for(content_m, style * std + mean)(out * std + mean, content_m.fps)
         return (encode(cleanup_feet(out_m, reference=content_m)) - mean) / std
 
     return transfer
@@ -156,7 +156,8 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
             from video2style.park_apply import load_stylizer
 
             method = park_method(load_stylizer(stgcn_weights), seed)
-            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std, lambda content: decode_via_positions)
+            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std,
+                                                                        lambda content, example: decode_via_positions)
         else:
             from transfer.apply import decoder
             from video2style.pipeline import (
@@ -178,7 +179,8 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
                                    strength=strength, shared=shared, store=style_cache, words=words)
                 learners[row] = learner
                 methods[row] = cleaned(learner, test.mean, test.std,
-                                       lambda content, c=config: decoder(c, reference=content))
+                                       lambda content, example, c=config: decoder(c, reference=content,
+                                                                                  example=example))
     return methods, learners
 
 

@@ -8,7 +8,9 @@ appended to the output (:class:`motioncore.bvh_stream.BvhSpanWriter`: a temporar
 Two things are the whole take's and gathered by a first pass over it: the floor (:func:`place_on_floor`'s
 shift) and each foot joint's lowest height (the contact channels). Decoding, foot cleanup and the write-back
 see :data:`MARGIN` frames either side of each span; the result equals the whole-clip path's (the tests: within
-0.05 cm) except where a foot contact lasts longer than the margin across a span's end.
+0.05 cm) except where a foot contact lasts longer than the margin across a span's end, and except for the
+stray-limb guard (``StyleConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`), which needs the whole
+result's time-mean limb places and is not applied to a take streamed a span at a time.
 """
 from __future__ import annotations
 
@@ -277,7 +279,8 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
             **{k: v / n for k, v in sums.items()}, "tempo": 1.0, "streamed": spans,
             "seconds_transfer": time.time() - t0, "output": str(out_path),
             "stream_note": f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
-                           f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take)"}
+                           f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take); "
+                           "no stray-limb guard (it needs the whole take's mean limb places)"}
     if preview:
         made = [out_path]
         try:

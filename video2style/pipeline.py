@@ -344,7 +344,8 @@ def resolve_tempo(style, tempo: str | float) -> float:
 
 def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: int = 0,
                    neutralize: str = "auto") -> tuple[Motion, dict]:
-    """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; feet cleaned against the content.
+    """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; stray limbs drawn back
+    (``limb_guard`` of the style's config, :func:`transfer.apply.guard_stray_limbs`); feet cleaned against the content.
 
     ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
     (only when the motion encoder reads a styled clip confidently), always or never.
@@ -365,7 +366,8 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
         reading, neutral_text = neutral_caption(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std,
                                                 neutralize)
         detected = reading.describe()
-    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False)
+    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False,
+                             example=style.example)  # stray limbs drawn back (config.limb_guard), before the feet
     result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
     return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
                     "skating_content": skating(content)}

@@ -1,0 +1,154 @@
+"""The stray-limb guard (motioncore.limbs.guard_limbs) and its place in apply (transfer.apply.decoder)."""
+import pytest
+import torch
+
+from motioncore.limbs import (
+    LIMBS,
+    _facing,
+    allowed_stray,
+    guard_limbs,
+    limb_places,
+    motion_limb_places,
+    nearest_on_segment,
+)
+from motioncore.representation import encode
+from motioncore.skeleton import CANONICAL
+from tests.helpers import random_motion
+
+HAND_L = LIMBS.index("Hand_L")
+
+
+def _off(limb: int, offset) -> torch.Tensor:
+    out = torch.zeros(len(LIMBS), 3)
+    out[limb] = torch.tensor(offset)
+    return out
+
+
+def test_motion_places_are_the_feature_places():
+    motion = random_motion(seconds=3, seed=1, amplitude=0.3)
+    assert motion_limb_places(motion).shape == (len(LIMBS), 3)
+    assert torch.allclose(motion_limb_places(motion), limb_places(encode(motion)), atol=1e-5)
+
+
+def test_allowed_stray_is_the_identity_up_to_the_start_then_stays_under_one_and_a_half_times_it():
+    s = torch.tensor([0.0, 0.05, 0.08, 0.1, 0.3, 10.0])
+    got = allowed_stray(s, 0.08)
+    assert torch.allclose(got[:3], s[:3])
+    assert 0.08 < float(got[3]) < 0.1
+    assert float(got[4]) == pytest.approx(0.08 + 0.04 * torch.tanh(torch.tensor(0.22 / 0.04)).item(), abs=1e-6)
+    assert float(got[5]) <= 0.12 and bool((got[1:] >= got[:-1]).all())
+    with pytest.raises(ValueError, match="start above 0"):
+        allowed_stray(s, 0.0)
+
+
+def test_a_hand_held_30_cm_off_the_segment_comes_back_within_the_limit_and_keeps_its_motion():
+    motion = random_motion(seconds=4, seed=3, amplitude=0.3)
+    places = motion_limb_places(motion)
+    # content and example hold the left hand 30 cm further in (towards the body) than the result does
+    content, example = places - _off(HAND_L, [0.3, 0.0, 0.0]), places - _off(HAND_L, [0.3, 0.0, 0.05])
+    assert float((places - nearest_on_segment(content, example, places)).norm(dim=-1)[HAND_L]) == pytest.approx(0.3, abs=1e-4)
+    out, applied = guard_limbs(motion, content, example, start=0.08)
+    after = motion_limb_places(out)
+    stray = (after - nearest_on_segment(content, example, after)).norm(dim=-1)
+    assert float(stray[HAND_L]) <= 0.12 + 1e-3  # allowed_stray never reaches 1.5 x the start
+    assert float(stray[HAND_L]) == pytest.approx(float(allowed_stray(torch.tensor(0.3), 0.08)), abs=5e-3)
+    assert torch.allclose(applied[HAND_L], after[HAND_L] - places[HAND_L], atol=1e-5)
+    assert applied[[i for i in range(len(LIMBS)) if i != HAND_L]].abs().max() == 0
+    # only the mean moved: the hand's path in the facing frame is the old one plus one constant offset
+    _, before_l = _facing(motion.global_positions(), CANONICAL)
+    _, after_l = _facing(out.global_positions(), CANONICAL)
+    delta = after_l[:, HAND_L] - before_l[:, HAND_L]
+    assert float((delta - delta.mean(0)).norm(dim=-1).max()) < 0.01
+    # the other limbs, the root and the bones are untouched
+    others = [CANONICAL.skeleton.index(n) for n in ("Hand_R", "Foot_L", "Foot_R", "Head")]
+    assert torch.allclose(out.global_positions()[:, others], motion.global_positions()[:, others], atol=1e-5)
+    assert torch.equal(out.lpos, motion.lpos)
+
+
+def test_a_stray_foot_moves_only_horizontally():
+    motion = random_motion(seconds=4, seed=4, amplitude=0.2)
+    places = motion_limb_places(motion)
+    foot = LIMBS.index("Foot_R")
+    content = places - _off(foot, [0.25, 0.0, 0.0])
+    _, applied = guard_limbs(motion, content, content, start=0.08)
+    assert float(applied[foot, 0]) < -0.1
+    assert abs(float(applied[foot, 1])) < 0.02  # the leg's reach may lift it a little; the offset has no height
+
+
+def test_a_result_on_the_segment_is_unchanged():
+    motion = random_motion(seconds=3, seed=5, amplitude=0.3)
+    places = motion_limb_places(motion)
+    content, example = places - 0.1, places + 0.1  # every place midway between the content's and the example's
+    out, applied = guard_limbs(motion, content, example, start=0.08)
+    assert out is motion and applied.abs().max() == 0
+    # a limb off the segment but within the start is left too
+    out, applied = guard_limbs(motion, places - _off(HAND_L, [0.05, 0.0, 0.0]), places - _off(HAND_L, [0.05, 0.0, 0.0]),
+                               start=0.08)
+    assert out is motion and applied.abs().max() == 0
+
+
+def test_shapes_are_validated():
+    motion = random_motion(seconds=2, seed=6)
+    places = motion_limb_places(motion)
+    with pytest.raises(ValueError, match=r"expected places \(4, 3\)"):
+        guard_limbs(motion, places[:3], places, start=0.08)
+    with pytest.raises(ValueError, match=r"expected places \(4, 3\)"):
+        guard_limbs(motion, places, places.flatten(), start=0.08)
+    with pytest.raises(ValueError, match="expected a, b, p"):
+        nearest_on_segment(places, places[:2], places)
+    with pytest.raises(ValueError, match="expected raw features"):
+        limb_places(encode(motion)[:, :10])
+    from tests.helpers import bandai_like_skeleton
+
+    other = bandai_like_skeleton()
+    with pytest.raises(ValueError, match="canonical skeleton"):
+        motion_limb_places(type(motion)(other, torch.zeros(2, other.num_joints, 4), torch.zeros(2, other.num_joints, 3), 20.0))
+
+
+def test_apply_guards_the_decoded_result_only_when_the_config_says_so():
+    from dataclasses import replace
+
+    from motioncore.motion import Motion
+    from motioncore.representation import FEATURES, decode
+    from transfer.apply import decoder, guard_stray_limbs
+    from transfer.style_config import StyleConfig
+
+    result = random_motion(seconds=3, seed=7, amplitude=0.3)
+    feats = encode(result)
+    lowered = result.lpos.clone()
+    lowered[:, 0, 1] -= 0.3
+    content = Motion(result.skeleton, result.lrot, lowered, result.fps)  # every place 30 cm lower than the result's
+    example = feats.clone()
+    example[:, FEATURES.positions] -= torch.tensor([0.0, 0.3, 0.0]).repeat(CANONICAL.num_joints - 1)
+    off = StyleConfig(limb_guard=0.0, decode="rotations")
+    assert guard_stray_limbs(result, content, example, off) is result
+    assert decoder(off, reference=content, example=example) is decode  # off: the plain decode
+    on = replace(off, limb_guard=0.08)
+    assert decoder(on, reference=content) is decode  # no example (a style file without one): nothing to guard
+
+    def stray(m):
+        p = motion_limb_places(m)
+        return (p - nearest_on_segment(motion_limb_places(content), limb_places(example), p)).norm(dim=-1)
+
+    assert float(stray(decode(feats)).min()) == pytest.approx(0.3, abs=1e-3)
+    guarded = decoder(on, reference=content, example=example)(feats, 20.0)
+    assert float(stray(guarded)[:2].max()) < 0.125  # the hands drawn back down
+    assert float(stray(guarded)[2:].min()) == pytest.approx(0.3, abs=0.02)  # the feet are not lowered into the floor
+    with pytest.raises(ValueError, match="expected a content of"):
+        guard_stray_limbs(result, content.slice(0, 10), example, on)
+
+
+def test_limb_guard_is_a_validated_apply_field_and_old_style_files_get_the_default():
+    from transfer.style_config import StyleConfig
+    from transfer.style_schema import check_config_value, validate_config
+    from video2style.evaluate import APPLY_FIELDS
+
+    assert StyleConfig().limb_guard == pytest.approx(0.08) and "limb_guard" in APPLY_FIELDS
+    validate_config({"limb_guard": 0.0})
+    validate_config({"limb_guard": 0.1})
+    assert StyleConfig(**validate_config({"decode": "guarded"})).limb_guard == StyleConfig.limb_guard  # a file without it
+    for bad in (-0.1, 1.5, float("nan"), "on", True):
+        with pytest.raises(ValueError, match="limb_guard"):
+            validate_config({"limb_guard": bad})
+    with pytest.raises(ValueError, match="from 0.0 to 1.0"):
+        check_config_value("limb_guard", 2.0)
