@@ -163,13 +163,29 @@ class _Scorer:
         content_pred = self.content_clf.eval().head(feats).argmax(-1)  # = recognition_accuracy, one pass fewer
         style_feats = run_batched(self.style_clf, [self.style_clf.standardize(x) for x in raw], "features")
         style_pred = self.style_clf.eval().head(style_feats).argmax(-1)
+        content_ok = content_pred == self.content_clf.label_index(contents)
+        style_ok = style_pred == self.style_clf.label_index(styles)
         return {
             "features": feats,
             "style_features": style_feats,
-            "cra": float((content_pred == self.content_clf.label_index(contents)).float().mean()),
-            "sra": float((style_pred == self.style_clf.label_index(styles)).float().mean()),
+            "cra": float(content_ok.float().mean()),
+            "sra": float(style_ok.float().mean()),
+            "by_style": by_target(styles, content_ok, style_ok, [self.style_clf.config.classes[int(i)] for i in style_pred]),
             "skating": foot_skating_ratio([decode_positions(x.double()) for x in raw], self.fps),
         }
+
+
+def by_target(targets: Sequence[str], content_ok: torch.Tensor, style_ok: torch.Tensor,
+              read_as: Sequence[str]) -> dict[str, dict]:
+    """Per target style: ``{"n", "cra", "sra", "read_as": {style: share}}`` of the transfers to it (``content_ok``,
+    ``style_ok``: ``(N,)`` bools; ``read_as``: the style classifier's reading of each output)."""
+    out = {}
+    for s in sorted(set(targets)):
+        idx = [i for i, t in enumerate(targets) if t == s]
+        reads = [read_as[i] for i in idx]
+        out[s] = {"n": len(idx), "cra": float(content_ok[idx].float().mean()), "sra": float(style_ok[idx].float().mean()),
+                  "read_as": {r: reads.count(r) / len(idx) for r in sorted(set(reads), key=lambda r: -reads.count(r))}}
+    return out
 
 
 def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True, seed: int = 0,
@@ -217,6 +233,7 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
             "fmd_style": style_fmd(real["style_features"], real_styles, gen["style_features"], [it.target_style for it in items]),
             "cra": gen["cra"],
             "sra": gen["sra"],
+            "by_style": gen["by_style"],
             "skating": gen["skating"],
             "contact_agreement": foot_contact_agreement([data.clip(it.content_index, normalized=False) for it in items], outputs, fps),
             **stray_summary([data.clip(it.content_index, normalized=False) for it in items],
@@ -267,4 +284,8 @@ def format_table(rows: Sequence[dict]) -> str:
                      f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
                      f"{num(pct['stray'], '.1f')} | {num(pct['stray_share'], '.0f')} | "
                      f"{num(r.get('sec_per_transfer'), '.4f')} |")
-    return "\n".join(lines)
+    notes = [f"- {r['method']}, by target style (CRA / SRA %; most read as): "
+             + "; ".join(f"{s} {100 * v['cra']:.0f} / {100 * v['sra']:.0f} ({next(iter(v['read_as']))})"
+                         for s, v in r["by_style"].items())
+             for r in rows if r.get("by_style")]
+    return "\n".join(lines + ([""] + notes if notes else []))
