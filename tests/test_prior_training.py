@@ -78,3 +78,27 @@ def test_convergence_is_the_fall_over_the_last_fifth():
     assert convergence(log) == pytest.approx((0.165 - 0.158) / 0.165)
     assert convergence(log[:2]) is None
     assert read_val_log("/nonexistent/val.csv") == []
+
+
+def test_bf16_steps_train_and_the_validation_loss_matches_fp32_at_the_same_weights(tmp_path):
+    """precision "bf16" runs the training forward under autocast: a tiny run trains (finite, falling loss), its
+    checkpoint records the setting, and the loss of one batch is within bfloat16's rounding of fp32's."""
+    from transfer.denoiser import Denoiser, DenoiserConfig
+    from transfer.prior import diffusion_loss
+    from transfer.scheduler import DiffusionScheduler
+
+    cache, out = _cache(tmp_path), tmp_path / "run"
+    explicit = {**TINY, "precision": "bf16"}
+    trainer = train_prior(cache, out, PriorTrainConfig(**explicit), max_minutes=5, max_steps=4, explicit=explicit,
+                          progress=False)
+    assert trainer.config.precision == "bf16" and trainer.step == 4
+    assert all(0 < v < float("inf") for _, v in read_val_log(out / "val.csv"))
+    torch.manual_seed(0)
+    model = Denoiser(DenoiserConfig(width=32, layers=1, heads=2, ff=64, dropout=0.0))
+    args = (torch.randn(4, 24, model.config.feature_dim), torch.ones(4, 24, dtype=torch.bool), torch.randn(4, 384),
+            torch.zeros(4, dtype=torch.bool), 1.0)
+    losses = {p: diffusion_loss(model, DiffusionScheduler(), *args[:4], args[4], torch.Generator().manual_seed(1), p)[0]
+              for p in ("fp32", "bf16")}
+    assert abs(float(losses["bf16"] - losses["fp32"])) < 0.02 * float(losses["fp32"])
+    with pytest.raises(ValueError, match="expected precision"):
+        diffusion_loss(model, DiffusionScheduler(), *args[:4], args[4], torch.Generator(), "fp16")
