@@ -18,7 +18,7 @@ from motioncore import quat
 from motioncore.cleanup import two_bone_ik
 from motioncore.kinematics import fk
 from motioncore.motion import Motion
-from motioncore.representation import FEATURES, facing_angle
+from motioncore.representation import FEATURES, facing_frame
 from motioncore.skeleton import CANONICAL, CanonicalSpec
 
 LIMBS = ("Hand_L", "Hand_R", "Foot_L", "Foot_R")  # the end effectors whose carriage a style may change
@@ -38,11 +38,9 @@ def limb_places(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.T
 
 def _facing(gpos: torch.Tensor, spec: CanonicalSpec) -> tuple[torch.Tensor, torch.Tensor]:
     """``gpos (T, J, 3)`` -> the facing yaw ``(T, 4)`` quaternion and each limb end's position ``(T, 4, 3)`` in
-    the hips' facing frame (as :func:`motioncore.representation.encode` writes joint positions)."""
-    yaw = quat.from_yaw(facing_angle(gpos, spec))
-    ends = gpos[:, [spec.skeleton.index(n) for n in LIMBS]]
-    ground = gpos[:, :1] * gpos.new_tensor([1.0, 0.0, 1.0])
-    return yaw, quat.mul_vec(quat.inv(yaw)[:, None], ends - ground)
+    the hips' facing frame (:func:`motioncore.representation.facing_frame`)."""
+    theta, rel = facing_frame(gpos, spec)
+    return quat.from_yaw(theta), rel[:, [spec.skeleton.index(n) - 1 for n in LIMBS]]
 
 
 def motion_limb_places(motion: Motion, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:

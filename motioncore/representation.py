@@ -74,6 +74,15 @@ def facing_angle(gpos: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.T
     return torch.atan2(-across[..., 2], across[..., 0])  # forward = across x up = (-a_z, 0, a_x)
 
 
+def facing_frame(gpos: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> tuple[torch.Tensor, torch.Tensor]:
+    """The hips' facing frame of ``gpos (T, J, 3)``: the facing yaw ``(T,)`` (:func:`facing_angle`) and joints
+    1.. in that frame ``(T, J-1, 3)`` (the root's ground position subtracted, turned by minus the yaw), as the
+    feature vector's joint-position channels hold them."""
+    theta = facing_angle(gpos, spec)
+    rel = gpos[:, 1:] - gpos[:, :1] * gpos.new_tensor([1.0, 0.0, 1.0])
+    return theta, quat.mul_vec(quat.from_yaw(-theta)[:, None], rel)
+
+
 def foot_contacts(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL,
                   floor: torch.Tensor | None = None) -> torch.Tensor:
     """Contact flags ``(T, 4)`` for (Foot_L, Toes_L, Foot_R, Toes_R) from height and speed. ``floor (4,)``: each
@@ -117,13 +126,11 @@ def encode(motion: Motion, spec: CanonicalSpec = CANONICAL, floor: torch.Tensor 
         lpos = spec.skeleton.offsets.double().expand(e - s, -1, -1).clone()
         lpos[:, 0] = motion.lpos[s:e, 0].double()
         grot, gpos = fk(lrot, lpos, spec.skeleton.parents)
-        theta = facing_angle(gpos, spec)  # (t,)
+        theta, rel = facing_frame(gpos, spec)  # (t,), (t, J-1, 3)
         yaw_inv = quat.from_yaw(-theta)  # (t, 4)
         root = gpos[:, 0]
         dtheta = _forward_difference(theta, lambda d: torch.remainder(d + torch.pi, 2 * torch.pi) - torch.pi)
         lvel = quat.mul_vec(yaw_inv, _forward_difference(root))[:, [0, 2]]
-        rel = gpos[:, 1:] - root[:, None] * root.new_tensor([1.0, 0.0, 1.0])
-        rel = quat.mul_vec(yaw_inv[:, None], rel)
         lrot[:, 0] = quat.mul(yaw_inv, grot[:, 0])
         rot6 = quat.to_6d(lrot)
         feet = gpos[:, list(spec.feet)]
