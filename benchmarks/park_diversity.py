@@ -25,15 +25,15 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
-    from evaluation.park.infer import pairwise_diversity, stylize_noise
     from motioncore.render import Panel, render_video
     from motioncore.representation import decode
     from motioncore.skeleton import CANONICAL
+    from park.infer import pairwise_diversity, stylize_noise
     from transfer.captions import BANDAI2_CONTENTS
     from transfer.dataset import MotionDataset
-    from video2style.park_apply import load_stylizer
+    from video2style.park_apply import park_model
 
-    model = load_stylizer(args.weights)
+    model = park_model(args.weights)
     data = MotionDataset(args.data, "test")
     clips = []
     for c in BANDAI2_CONTENTS:

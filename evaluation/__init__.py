@@ -1,12 +1,13 @@
-"""Measuring style transfer, apart from the method in ``transfer/``.
+"""Measuring style transfer, apart from the methods in ``transfer/`` and ``park/``.
 
 - :mod:`evaluation.protocol`: the Bandai-2 transfer protocol after Hu et al. 2024 §4.2 (clip selection,
   FMD, CRA, SRA, foot skating), run by ``video2style evaluate``;
 - :mod:`evaluation.metrics` and :mod:`evaluation.classifiers`: the metrics and the ST-GCN content and
-  style classifiers behind them (:mod:`evaluation.stgcn`, the graph convolution they share with Park et al.);
-- :mod:`evaluation.prior_eval`: evidence of quality for the prior and the motion encoder;
-- :mod:`evaluation.park`: Park et al. 2021's ST-GCN stylizer, the comparison method (users reach it
-  through ``video2style apply --method stgcn``).
+  style classifiers behind them (on :mod:`park.graph`, the graph convolution they share with Park et al.);
+- :mod:`evaluation.prior_eval`: evidence of quality for the prior and the motion encoder.
 
-Imports go one way: motioncore <- transfer <- evaluation <- video2style.
+Park et al. 2021's stylizer, the comparison method, is its own package :mod:`park` (users reach it through
+``video2style apply --method park``).
+
+Imports go one way: motioncore <- transfer <- park <- evaluation <- video2style.
 """

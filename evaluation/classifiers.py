@@ -1,6 +1,6 @@
 """ST-GCN content and style classifiers for Bandai-2 (evaluation after Hu et al. 2024 §4.2).
 
-One architecture for both targets: ST-GCN blocks (``evaluation/stgcn.py``) over the canonical
+One architecture for both targets: ST-GCN blocks (``park/graph.py``) over the canonical
 skeleton graph, a masked global average over frames and joints (:meth:`MotionClassifier.features`,
 the vector FMD uses) and a linear layer (:meth:`MotionClassifier.logits`).
 
@@ -30,7 +30,8 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.nn import functional as F
 
-from evaluation.stgcn import (
+from motioncore.representation import FEATURES
+from park.graph import (
     GRAPH_CHANNELS,
     STGCNBlock,
     canonical_adjacency,
@@ -38,15 +39,12 @@ from evaluation.stgcn import (
     masked_mean,
     valid_to_mask,
 )
-from motioncore.representation import FEATURES
-from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.captions import BANDAI2_CONTENTS
 from transfer.checkpoints import load_config, save_model
-from transfer.dataset import MotionDataset
+from transfer.dataset import LABELS, MotionDataset, labelled_clips
 from transfer.device import model_device, resolve_device
 from transfer.shipped import weights_dir
 from transfer.training import Trainer
-
-TARGETS = {"content": BANDAI2_CONTENTS, "style": STYLES}
 
 
 def default_weights(target: str) -> Path:
@@ -187,21 +185,8 @@ class ClassifierTrainConfig:
     seed: int = 0
 
     def model_config(self) -> ClassifierConfig:
-        return ClassifierConfig(target=self.target, classes=list(TARGETS[self.target]), channels=list(self.channels),
+        return ClassifierConfig(target=self.target, classes=list(LABELS[self.target]), channels=list(self.channels),
                                 strides=list(self.strides), temporal_kernel=self.temporal_kernel, dropout=self.dropout)
-
-
-def labelled_clips(data_dir: Path, split: str, target: str, originals_only: bool = False) -> tuple[MotionDataset, list[int], list[int]]:
-    """Bandai-2 clips of ``split``: the dataset, clip indices into it, and class indices for ``target``."""
-    data = MotionDataset(data_dir, split)
-    classes = list(TARGETS[target])
-    idx, labels = [], []
-    for i, r in enumerate(data.records):
-        value = getattr(r, target)
-        if r.dataset == "bandai2" and value in classes and not (originals_only and r.mirrored):
-            idx.append(i)
-            labels.append(classes.index(value))
-    return data, idx, labels
 
 
 def _sample_batch(data: MotionDataset, by_class: list[list[int]], n: int, window: int, gen: torch.Generator):
@@ -242,8 +227,8 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
     accuracy and confusion matrix, and returns that card.
     ``device``: auto, cpu or cuda (:func:`transfer.device.resolve_device`); the exported weights are CPU tensors.
     """
-    if target not in TARGETS:
-        raise ValueError(f"train_classifier: target must be one of {sorted(TARGETS)}, got {target!r}")
+    if target not in LABELS:
+        raise ValueError(f"train_classifier: target must be one of {sorted(LABELS)}, got {target!r}")
     config = config or ClassifierTrainConfig(target=target)
     if config.target != target:
         raise ValueError(f"train_classifier: config.target {config.target!r} != target {target!r}")
@@ -257,7 +242,7 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
     train, train_idx, train_y = labelled_clips(data_dir, "train", target)
     if not train_idx:
         raise ValueError(f"{data_dir}: no Bandai-2 train clips with {target} labels")
-    by_class = [[i for i, y in zip(train_idx, train_y) if y == c] for c in range(len(TARGETS[target]))]
+    by_class = [[i for i, y in zip(train_idx, train_y) if y == c] for c in range(len(LABELS[target]))]
     val, val_idx, val_y = labelled_clips(data_dir, "val", target)
     test, test_idx, test_y = labelled_clips(data_dir, "test", target)
 
@@ -294,7 +279,7 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
     val_result = evaluate_clips(trainer.ema, val, val_idx, val_y) if val_idx else {"accuracy": None}
     card = {
         "model": f"video2style {target} classifier (ST-GCN, Yan et al. 2018; spatial partitions after Park et al. 2021)",
-        "classes": list(TARGETS[target]),
+        "classes": list(LABELS[target]),
         "data": f"Bandai-Namco-Research-Motiondataset-2, train split of {Path(data_dir).name} (with mirrored copies), 20 fps, "
                 f"class-balanced random windows of {config.min_window}-{config.max_window} frames",
         "evaluation": "whole clips (zero-padded in batches and masked), Bandai-2 test split including mirrored copies",
@@ -306,7 +291,7 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
         "val_accuracy": val_result["accuracy"],
         "test_accuracy": result["accuracy"],
         "test_clips": result["n"],
-        "test_confusion": {"rows_true_columns_predicted": list(TARGETS[target]), "matrix": result["confusion"]},
+        "test_confusion": {"rows_true_columns_predicted": list(LABELS[target]), "matrix": result["confusion"]},
         "train_config": asdict(config),
         "model_config": asdict(trainer.ema.config),
         "parameters": sum(p.numel() for p in trainer.ema.parameters()),

@@ -9,7 +9,6 @@ from evaluation.classifiers import (
     ClassifierTrainConfig,
     MotionClassifier,
     default_weights,
-    labelled_clips,
     load_classifier,
     read_card,
     run_batched,
@@ -19,6 +18,7 @@ from evaluation.metrics import recognition_accuracy
 from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.captions import BANDAI2_CONTENTS, STYLES
+from transfer.dataset import labelled_clips
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 

@@ -1,12 +1,14 @@
-"""CLI paths of the second method (apply --method stgcn), pose errors and evaluate, on tiny project-made models."""
+"""CLI paths of the second method (apply --method park), pose errors and evaluate, on tiny project-made models."""
 from __future__ import annotations
+
+import json
 
 import pytest
 import torch
 
-from evaluation.park.networks import ParkConfig, ParkModel
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
+from park.networks import ParkConfig, ParkModel
 from tests.helpers import random_motion
 from transfer.checkpoints import save_model
 from video2style.cli import main
@@ -28,9 +30,9 @@ def clip(tmp_path_factory):
     return path
 
 
-def test_stgcn_variants_write_one_bvh_each_on_the_clip_skeleton(park_weights, clip, tmp_path, capsys):
+def test_park_variants_write_one_bvh_each_on_the_clip_skeleton(park_weights, clip, tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(["apply", "--method", "stgcn", "--domain", "elderly", "--variants", "3", "--weights", str(park_weights),
+    assert main(["apply", "--method", "park", "--domain", "elderly", "--variants", "3", "--park-weights", str(park_weights),
                  str(clip), "-o", str(out), "--no-preview"]) == 0
     files = sorted(p.name for p in out.glob("*.bvh"))
     assert files == ["walk_elderly-s0.bvh", "walk_elderly-s1.bvh", "walk_elderly-s2.bvh"]
@@ -41,14 +43,14 @@ def test_stgcn_variants_write_one_bvh_each_on_the_clip_skeleton(park_weights, cl
     assert not torch.allclose(a.lrot, b.lrot, atol=1e-4)  # distinct noise, distinct outputs
 
 
-def test_stgcn_mix_and_reference(park_weights, clip, tmp_path):
+def test_park_mix_and_reference(park_weights, clip, tmp_path):
     out = tmp_path / "mix"
-    assert main(["apply", "--method", "stgcn", "--domain", "elderly", "--mix", "exhausted", "--mix-steps", "3",
-                 "--weights", str(park_weights), str(clip), "-o", str(out), "--no-preview"]) == 0
+    assert main(["apply", "--method", "park", "--domain", "elderly", "--mix", "exhausted", "--mix-steps", "3",
+                 "--park-weights", str(park_weights), str(clip), "-o", str(out), "--no-preview"]) == 0
     assert len(list(out.glob("*.bvh"))) == 3
     out = tmp_path / "ref"
-    assert main(["apply", "--method", "stgcn", "--domain", "active", "--reference", str(clip),
-                 "--weights", str(park_weights), str(clip), "-o", str(out)]) == 0
+    assert main(["apply", "--method", "park", "--domain", "active", "--reference", str(clip),
+                 "--park-weights", str(park_weights), str(clip), "-o", str(out)]) == 0
     assert (out / "walk.bvh").is_file() and (out / "walk_preview.mp4").is_file()
 
 
@@ -60,16 +62,44 @@ def test_stgcn_mix_and_reference(park_weights, clip, tmp_path):
     (["--domain", "elderly", "--variants", "100000"], "--variants: expected 1 to 64"),
     (["--domain", "elderly", "--mix", "exhausted", "--mix-steps", "100000"], "--mix-steps: expected 2 to 64"),
 ])
-def test_stgcn_bad_requests_are_one_line_errors(park_weights, clip, tmp_path, capsys, argv, message):
-    rc = main(["apply", "--method", "stgcn", *argv, "--weights", str(park_weights), str(clip), "-o", str(tmp_path / "o")])
+def test_park_bad_requests_are_one_line_errors(park_weights, clip, tmp_path, capsys, argv, message):
+    rc = main(["apply", "--method", "park", *argv, "--park-weights", str(park_weights), str(clip), "-o", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert rc == 1 and message in err and "\n" not in err
     assert not (tmp_path / "o").exists() or not list((tmp_path / "o").iterdir())
 
 
-def test_diffusion_apply_rejects_stgcn_flags(tmp_path, clip, capsys):
+def test_the_older_names_stgcn_and_weights_give_the_same_files(park_weights, clip, tmp_path):
+    """``--method stgcn`` and ``--weights`` are the older names of ``--method park`` and ``--park-weights``."""
+    runs = {"new": ["--method", "park", "--park-weights"], "old": ["--method", "stgcn", "--weights"]}
+    for name, (m, method, w) in runs.items():
+        assert main(["apply", m, method, "--domain", "elderly", "--mix", "exhausted", "--mix-steps", "2", w,
+                     str(park_weights), str(clip), "-o", str(tmp_path / name), "--no-preview"]) == 0
+    files = sorted(p.name for p in (tmp_path / "new").glob("*.bvh"))
+    assert len(files) == 2 and files == sorted(p.name for p in (tmp_path / "old").glob("*.bvh"))
+    for f in files:
+        assert (tmp_path / "new" / f).read_bytes() == (tmp_path / "old" / f).read_bytes()
+
+
+def test_the_mix_interpolates_codes_with_park_infer_mix(park_weights):
+    """apply --mix's codes are :func:`park.infer.mixed_code` of the two ends, as :func:`park.infer.mix` uses."""
+    from park.infer import code_from_noise, generate, mix
+    from video2style.park_apply import ParkRequest, park_model, style_codes
+
+    park_model.cache_clear()
+    model = park_model(park_weights)
+    codes = style_codes(model, ParkRequest("elderly", seed=3, mix="exhausted", mix_steps=3))
+    a, b = code_from_noise(model, "elderly", 3)[0], code_from_noise(model, "exhausted", 3)[0]
+    assert [tag for _, tag in codes] == ["elderly-exhausted-0.00", "elderly-exhausted-0.50", "elderly-exhausted-1.00"]
+    content = torch.randn(20, model.config.feature_dim)
+    for (code, _), alpha in zip(codes, (0.0, 0.5, 1.0)):
+        assert torch.equal(generate(model, content, code), mix(model, content, a, b, alpha))
+    park_model.cache_clear()
+
+
+def test_diffusion_apply_rejects_park_flags(tmp_path, clip, capsys):
     assert main(["apply", str(tmp_path / "x.v2s"), str(clip), "-o", str(tmp_path), "--domain", "elderly"]) == 1
-    assert "--domain belongs to --method stgcn" in capsys.readouterr().err
+    assert "--domain belongs to --method park" in capsys.readouterr().err
 
 
 def test_pose_of_a_non_video_names_the_file(tmp_path, capsys):
@@ -80,28 +110,43 @@ def test_pose_of_a_non_video_names_the_file(tmp_path, capsys):
     assert "bad.mp4" in err and not (tmp_path / "bad.bvh").exists()
 
 
-def test_evaluate_identity_and_stgcn_on_a_tiny_cache(tmp_path, park_weights, monkeypatch):
+def test_evaluate_identity_and_park_on_a_tiny_cache(tmp_path, park_weights, monkeypatch):
     from tests.synthetic_cache import write_synthetic_cache
     from tests.test_evaluation import _random_classifier
     from transfer.captions import BANDAI2_CONTENTS, STYLES
-    from video2style import park_apply as stgcn
+    from video2style import park_apply
     from video2style.evaluate import evaluate
 
     cache = write_synthetic_cache(tmp_path / "cache")
     weights = {"content": _random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
                "style": _random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
     monkeypatch.setattr("evaluation.protocol.default_weights", lambda target: weights[target])
-    stgcn.load_stylizer.cache_clear()
-    monkeypatch.setattr(stgcn, "weights_path", lambda name: park_weights)
-    lines = list(evaluate(cache, tmp_path / "eval", quick=True, methods=["identity", "stgcn"]))
-    stgcn.load_stylizer.cache_clear()
+    park_apply.park_model.cache_clear()
+    monkeypatch.setattr(park_apply, "weights_path", lambda name: park_weights)
+    lines = list(evaluate(cache, tmp_path / "eval", quick=True, methods=["identity", "park"]))
     table = (tmp_path / "eval" / "table.md").read_text()
-    assert "| identity |" in table and "| stgcn |" in table and lines[-1].startswith("wrote")
+    assert "| identity |" in table and "| park |" in table and lines[-1].startswith("wrote")
+    # the older name stgcn runs as park, with the same numbers, in a row named park
+    list(evaluate(cache, tmp_path / "eval_old", quick=True, methods=["identity", "stgcn", "park"]))
+    park_apply.park_model.cache_clear()
+    rows, old = ([{k: v for k, v in r.items() if k not in ("sec_per_transfer", "seconds")}
+                  for r in json.loads((tmp_path / d / "rows.json").read_text())] for d in ("eval", "eval_old"))
+    assert [r["method"] for r in old] == [r["method"] for r in rows] and old == rows
     assert (tmp_path / "eval" / "tradeoff.png").stat().st_size > 1000 and "target-style FMD" in table
     with pytest.raises(ValueError, match="unknown method"):
         list(evaluate(cache, tmp_path / "eval2", methods=["nope"]))
-    with pytest.raises(FileNotFoundError, match="other_park.safetensors"):  # --stgcn-weights is used, not the default
-        list(evaluate(cache, tmp_path / "eval3", methods=["stgcn"], stgcn_weights=tmp_path / "other_park.safetensors"))
+    with pytest.raises(FileNotFoundError, match="other_park.safetensors"):  # --park-weights is used, not the default
+        list(evaluate(cache, tmp_path / "eval3", methods=["park"], park_weights=tmp_path / "other_park.safetensors"))
+
+
+def test_evaluate_takes_the_older_names_of_methods_and_weights():
+    from video2style.cli import build_parser
+    from video2style.methods import ALIASES, METHODS, method_names
+
+    args = build_parser().parse_args(["evaluate", "--stgcn-weights", "w.safetensors"])
+    assert str(args.park_weights) == "w.safetensors" and args.methods == ["identity", "park", "ours"]
+    assert method_names(["identity", "stgcn", "stgcn-raw", "park", "ours"]) == ["identity", "park", "park-raw", "ours"]
+    assert all(target in METHODS and alias not in METHODS for alias, target in ALIASES.items())
 
 
 def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
@@ -115,12 +160,12 @@ def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
 
 
 def test_garbage_park_weights_are_one_line(tmp_path, clip, capsys):
-    from video2style import park_apply as stgcn
+    from video2style import park_apply
 
     bad = tmp_path / "garbage.safetensors"
     bad.write_bytes(b"\x08\x00\x00\x00\x00\x00\x00\x00{}garbage")
-    stgcn.load_stylizer.cache_clear()
-    rc = main(["apply", "--method", "stgcn", "--domain", "elderly", "--weights", str(bad), str(clip), "-o", str(tmp_path / "o")])
+    park_apply.park_model.cache_clear()
+    rc = main(["apply", "--method", "park", "--domain", "elderly", "--park-weights", str(bad), str(clip), "-o", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert rc == 1 and f"{bad}: not Park stylizer weights" in err and "\n" not in err
 

@@ -74,8 +74,8 @@ REFUSED = [  # command line -> each writes over one of its inputs (spelled anoth
     ["apply", "s.v2s", "lib", "-o", "lib"],  # a folder input into itself
     ["apply", "s.v2s", "lib", "-o", "./lib/../lib"],
     ["apply", "s.v2s", "c.bvh", "-o", "out", "--joint-map", "out/c_player.js"],
-    ["apply", "--method", "stgcn", "--domain", "elderly", "lib/sub/run.bvh", "-o", "lib/sub"],
-    ["apply", "--method", "stgcn", "--domain", "elderly", "c.bvh", "-o", "o", "--reference", "o/c.bvh"],
+    ["apply", "--method", "park", "--domain", "elderly", "lib/sub/run.bvh", "-o", "lib/sub"],
+    ["apply", "--method", "park", "--domain", "elderly", "c.bvh", "-o", "o", "--reference", "o/c.bvh"],
     ["batch", "videos", "--content", "lib", "-o", "lib"],
     ["batch", "videos", "--content", "lib", "-o", "."],  # the video lib.mp4's results would go to ./lib, among the clips
     ["batch", "videos", "--content", "lib/sub", "-o", "."],

@@ -44,7 +44,7 @@ def test_the_device_names_import_without_torch():
 @pytest.mark.parametrize("argv", [
     ["learn", "walk.bvh"], ["apply", "old.v2s", "walk.bvh"], ["batch", "videos", "--content", "lib"],
     ["batch", "videos", "--content", "lib", "--ray"], ["train-prior"], ["train-encoder", "--prior", "p.safetensors"],
-    ["train-park"], ["train-classifier", "--target", "style"], ["apply", "--method", "stgcn", "--domain", "elderly", "walk.bvh"],
+    ["train-park"], ["train-classifier", "--target", "style"], ["apply", "--method", "park", "--domain", "elderly", "walk.bvh"],
 ])
 def test_cuda_without_a_gpu_is_one_line_and_exit_2_before_any_work(argv, no_gpu, tmp_path, capsys, monkeypatch):
     from video2style.cli import main
@@ -144,8 +144,8 @@ def test_device_cpu_and_auto_give_the_default_result(no_gpu, tmp_path):
 def test_park_et_al_keeps_its_tensors_on_the_models_device():
     """Park et al.'s inference on the meta device (shapes only), from CPU inputs: codes from noise and from a
     reference, and windowed generation, as a GPU would run them."""
-    from evaluation.park.infer import code_from_noise, code_from_reference, generate
-    from evaluation.park.networks import ParkConfig, ParkModel
+    from park.infer import code_from_noise, code_from_reference, generate
+    from park.networks import ParkConfig, ParkModel
 
     meta = torch.device("meta")
     torch.manual_seed(0)

@@ -19,7 +19,7 @@ def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
                  "transfer/weights/captions.safetensors", "transfer/weights/park_stylizer.safetensors",
                  "video2style/samples/elderly.mp4", "video2style/samples/walk_prior.bvh", "video2style/cli.py",
                  "motioncore/humanoid/__init__.py", "motioncore/humanoid/limbs.py", "video2style/blender_io.py", "lifting/lift.py", "lifting/reconstruct.py", "evaluation/protocol.py",
-                 "evaluation/park/infer.py"):
+                 "park/infer.py", "park/graph.py"):
         assert need in names, need
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     assert "video2style = video2style.cli:console_main" in zipfile.ZipFile(wheel).read(entry).decode()

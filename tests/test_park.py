@@ -7,7 +7,8 @@ import math
 import pytest
 import torch
 
-from evaluation.park.infer import (
+from motioncore.representation import FEATURES
+from park.infer import (
     code_from_noise,
     code_from_reference,
     generate,
@@ -18,8 +19,8 @@ from evaluation.park.infer import (
     stylize_noise,
     stylize_reference,
 )
-from evaluation.park.losses import LossWeights, d_loss, g_loss
-from evaluation.park.networks import (
+from park.losses import LossWeights, d_loss, g_loss
+from park.networks import (
     LEVEL1_GROUPS,
     LEVEL2_GROUPS,
     Discriminator,
@@ -29,8 +30,7 @@ from evaluation.park.networks import (
     pool,
     unpool,
 )
-from evaluation.park.train import ParkTrainConfig, train_park
-from motioncore.representation import FEATURES
+from park.train import ParkTrainConfig, train_park
 from transfer.checkpoints import save_model
 
 D = FEATURES.dim

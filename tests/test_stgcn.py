@@ -1,7 +1,9 @@
 import pytest
 import torch
 
-from evaluation.stgcn import (
+from motioncore.representation import FEATURES
+from motioncore.skeleton import CANONICAL
+from park.graph import (
     GRAPH_CHANNELS,
     GraphConv,
     STGCNBlock,
@@ -14,8 +16,6 @@ from evaluation.stgcn import (
     partition_labels,
     pooled_graph,
 )
-from motioncore.representation import FEATURES
-from motioncore.skeleton import CANONICAL
 
 NAMES = CANONICAL.skeleton.names
 

@@ -408,12 +408,12 @@ def test_index_links_are_url_encoded(tmp_path):
 
 
 def test_a_mix_seed_outside_the_seed_range_names_the_option():
-    from video2style.park_apply import StgcnRequest
+    from video2style.park_apply import ParkRequest
 
     for mix in ("99999999999999999999999", "--5"):
         with pytest.raises(ValueError, match="--mix: expected a domain .* or an integer seed"):
-            StgcnRequest("elderly", mix=mix).validate(["elderly", "exhausted"])
-    StgcnRequest("elderly", mix="-3").validate(["elderly", "exhausted"])
+            ParkRequest("elderly", mix=mix).validate(["elderly", "exhausted"])
+    ParkRequest("elderly", mix="-3").validate(["elderly", "exhausted"])
 
 
 @pytest.mark.parametrize("argv, option", [

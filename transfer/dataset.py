@@ -30,6 +30,7 @@ from motioncore.representation import FEATURES, encode
 from motioncore.retarget import make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
 from transfer.captions import (
+    BANDAI2_CONTENTS,
     MIRROR_CONTENT,
     NEUTRAL_STYLE,
     STYLE_ALIASES,
@@ -39,6 +40,7 @@ from transfer.captions import (
 
 _NAME = re.compile(r"dataset-(\d)_(?P<content>[a-z-]+?)_(?P<style>[a-z]+)_(?P<num>\d+)\.bvh$")
 STD_FLOOR = 1e-2
+LABELS = {"content": BANDAI2_CONTENTS, "style": STYLES}  # a clip's labels and their classes (classifiers, Park et al.)
 
 
 @dataclass
@@ -203,3 +205,17 @@ class MotionDataset:
             x[b, :length] = self.standardize(self.features[r.start + s:r.start + s + length])
             valid[b, :length] = True
         return x, valid, idx
+
+
+def labelled_clips(data_dir: Path, split: str, target: str, originals_only: bool = False) -> tuple[MotionDataset, list[int], list[int]]:
+    """Bandai-2 clips of ``split``: the dataset, clip indices into it, and class indices for ``target`` (a key of
+    :data:`LABELS`); ``originals_only``: without the mirrored copies."""
+    data = MotionDataset(data_dir, split)
+    classes = list(LABELS[target])
+    idx, labels = [], []
+    for i, r in enumerate(data.records):
+        value = getattr(r, target)
+        if r.dataset == "bandai2" and value in classes and not (originals_only and r.mirrored):
+            idx.append(i)
+            labels.append(classes.index(value))
+    return data, idx, labels

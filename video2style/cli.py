@@ -16,7 +16,7 @@ EXAMPLES = """examples:
   video2style pose walk.mp4 -o walk.bvh --preview walk_pose.mp4
   video2style learn old_man.mp4 --style old -o old.v2s
   video2style apply old.v2s library/ -o out/
-  video2style apply --method stgcn --domain elderly library/ -o out/ --variants 3
+  video2style apply --method park --domain elderly library/ -o out/ --variants 3
   video2style batch videos/ --content library/ -o results/
   video2style preview walk.bvh other.bvh -o cmp.mp4  # look at clips side by side
   video2style skeleton my_rig.bvh                    # which joint plays each role (joint maps are rarely needed)
@@ -373,8 +373,8 @@ def cmd_apply(args) -> None:
 
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     _writable(args.output, "-o", is_dir=True)
-    if args.method == "stgcn":
-        run_item, files = _stgcn_runner(args, joint_map)
+    if args.method in ("park", "stgcn"):  # stgcn: the older name
+        run_item, files = _park_runner(args, joint_map)
     else:
         run_item, files = _diffusion_runner(args, joint_map)
     from video2style.interchange import in_formats
@@ -423,10 +423,10 @@ def _diffusion_runner(args, joint_map):
     )
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
-        raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method stgcn --domain D)")
+        raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method park --domain D)")
     for flag in ("domain", "reference", "mix"):
         if getattr(args, flag) is not None:
-            raise CliError(f"apply: --{flag} belongs to --method stgcn")
+            raise CliError(f"apply: --{flag} belongs to --method park")
     _check_strength(args.strength)
     style = Style.load(args.style)
     if args.tempo not in ("off", "auto"):
@@ -445,18 +445,18 @@ def _check_strength(strength: float) -> None:
         raise CliError(f"--strength: expected a number from 0 to 1, got {strength:g}")
 
 
-def _stgcn_runner(args, joint_map):
-    from video2style.park_apply import StgcnRequest, apply_stgcn_file, load_stylizer
+def _park_runner(args, joint_map):
+    from video2style.park_apply import ParkRequest, apply_park_file, park_model
 
     if args.domain is None:
-        raise CliError("apply --method stgcn: give --domain (one of the style domains, e.g. elderly)")
+        raise CliError("apply --method park: give --domain (one of the style domains, e.g. elderly)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
     files = _bvh_inputs(inputs, args.output, [("the --joint-map", args.joint_map), ("the --reference clip", args.reference),
-                                              ("the --weights file", args.weights)])
-    model = load_stylizer(args.weights, args.device)
-    request = StgcnRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
+                                              ("the --park-weights file", args.park_weights)])
+    model = park_model(args.park_weights, args.device)
+    request = ParkRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))
-    return (lambda path, where: apply_stgcn_file(model, path, where, request, joint_map, not args.no_preview)), files
+    return (lambda path, where: apply_park_file(model, path, where, request, joint_map, not args.no_preview)), files
 
 
 def cmd_pose(args) -> None:
@@ -481,7 +481,7 @@ def cmd_train_park(args) -> None:
 
     import torch
 
-    from evaluation.park.train import ParkTrainConfig, default_weights, train_park
+    from park.train import ParkTrainConfig, default_weights, train_park
 
     explicit = {k: getattr(args, k) for k in ("batch_size", "window", "seed", "ds_decay_steps") if getattr(args, k) is not None}
     config = ParkTrainConfig(**explicit)
@@ -526,12 +526,12 @@ def cmd_train_classifier(args) -> None:
 def cmd_evaluate(args) -> None:
     from video2style.evaluate import evaluate
 
-    inputs = _data_inputs(args.data) + [("the --stgcn-weights file", args.stgcn_weights),
+    inputs = _data_inputs(args.data) + [("the --park-weights file", args.park_weights),
                                         ("the --unseen-models folder", args.unseen_models)]
     check_outputs([("-o", args.out)] + [("-o", args.out / name) for name in ("table.md", "rows.json", "tradeoff.png")], inputs)
     check_outputs([("--style-cache", args.style_cache)], inputs)
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
-                         examples_pool=args.examples_pool, stgcn_weights=args.stgcn_weights, split=args.split,
+                         examples_pool=args.examples_pool, park_weights=args.park_weights, split=args.split,
                          strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache,
                          unseen=args.unseen, unseen_models=args.unseen_models, words=args.style_words):
         print(line)
@@ -641,7 +641,7 @@ def _device_error(args) -> str | None:
 
 def build_parser() -> argparse.ArgumentParser:
     from transfer.style_config import MIN_ITERATIONS, StyleConfig
-    from video2style.methods import METHODS
+    from video2style.methods import ALIASES, METHODS
     from video2style.paths import cache_dir, default_dataset_dir
 
     p = argparse.ArgumentParser(prog="video2style", description=__doc__, epilog=EXAMPLES,
@@ -732,15 +732,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     ap = sub.add_parser("apply", help="apply a learned style (or Park et al.'s ST-GCN stylizer) to BVH clips",
                         epilog="examples:\n  video2style apply old.v2s library/ -o out/ --strength 0.6\n"
-                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --variants 4\n"
-                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --reference old.bvh\n"
-                               "  video2style apply --method stgcn --domain elderly walk.bvh -o out/ --mix exhausted",
+                               "  video2style apply --method park --domain elderly walk.bvh -o out/ --variants 4\n"
+                               "  video2style apply --method park --domain elderly walk.bvh -o out/ --reference old.bvh\n"
+                               "  video2style apply --method park --domain elderly walk.bvh -o out/ --mix exhausted",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("style", type=Path, nargs="?", help="style file from `video2style learn` (not with --method stgcn)")
+    ap.add_argument("style", type=Path, nargs="?", help="style file from `video2style learn` (not with --method park)")
     ap.add_argument("inputs", nargs="*", type=Path, help="BVH, FBX, GLB or glTF clips, or folders of them")
     ap.add_argument("-o", "--output", type=Path, required=True, help="output folder")
-    ap.add_argument("--method", choices=["diffusion", "stgcn"], default="diffusion",
-                    help="diffusion: a learned style file (default); stgcn: Park et al. 2021, style from a domain")
+    ap.add_argument("--method", choices=["diffusion", "park", "stgcn"], default="diffusion",
+                    help="diffusion: a learned style file (default); park: Park et al. 2021, style from a domain "
+                         "(stgcn: its older name)")
     ap.add_argument("--strength", type=float, default=0.5,
                     help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
                          "at some cost to the content (docs/RESULTS.md has the trade-off curve)")
@@ -751,12 +752,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="noise seed: the same seed gives the same result (default: %(default)s)")
     ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                     help="neutralise styled content first (auto: when the motion encoder recognises a style)")
-    ap.add_argument("--domain", help="stgcn: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
-    ap.add_argument("--variants", type=int, default=1, help="stgcn: outputs from this many noise draws (seeds seed, seed+1, ...)")
-    ap.add_argument("--reference", type=Path, help="stgcn: take the style code from this clip (read as --domain)")
-    ap.add_argument("--mix", help="stgcn: interpolate towards another domain or another seed (integer)")
-    ap.add_argument("--mix-steps", type=int, default=5, help="stgcn: interpolation outputs, ends included (default: %(default)s)")
-    ap.add_argument("--weights", type=Path, help="stgcn: stylizer weights (default: the shipped park_stylizer.safetensors)")
+    ap.add_argument("--domain", help="park: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
+    ap.add_argument("--variants", type=int, default=1, help="park: outputs from this many noise draws (seeds seed, seed+1, ...)")
+    ap.add_argument("--reference", type=Path, help="park: take the style code from this clip (read as --domain)")
+    ap.add_argument("--mix", help="park: interpolate towards another domain or another seed (integer)")
+    ap.add_argument("--mix-steps", type=int, default=5, help="park: interpolation outputs, ends included (default: %(default)s)")
+    ap.add_argument("--park-weights", "--weights", dest="park_weights", type=Path,
+                    help="park: its weights (default: the shipped park_stylizer.safetensors; --weights: the older name)")
     ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
     ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
     add_clip_format_arguments(ap, formats=True)
@@ -841,7 +843,7 @@ def build_parser() -> argparse.ArgumentParser:
         tp.add_argument(f"--{name.replace('_', '-')}", dest=name,
                         type={"seed": _style_option("seed"), "ds_decay_steps": int}.get(name, _positive_int),
                         default=None,
-                        help="default: see evaluation.park.train.ParkTrainConfig; a resumed run keeps its own")
+                        help="default: see park.train.ParkTrainConfig; a resumed run keeps its own")
     tp.add_argument("--lambda-ds", type=float, default=None,
                     help="weight of the diversity-sensitive loss (default 1, as in the paper)")
     tp.add_argument("--init", type=Path, default=None,
@@ -864,14 +866,15 @@ def build_parser() -> argparse.ArgumentParser:
     tc.set_defaults(func=cmd_train_classifier, run_root=cache_dir() / "runs")
 
     ev = sub.add_parser("evaluate", help="Bandai-2 transfer protocol (Hu et al. 4.2): FMD, CRA, SRA, foot skating",
-                        epilog="examples:\n  video2style evaluate --quick --methods identity stgcn ours\n"
+                        epilog="examples:\n  video2style evaluate --quick --methods identity park ours\n"
                                "  video2style evaluate --unseen --quick --split val --methods identity ours",
                         formatter_class=argparse.RawDescriptionHelpFormatter)
     ev.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     ev.add_argument("-o", "--out", type=Path, default=Path("eval_out"), help="folder for table.md, rows.json, tradeoff.png")
     ev.add_argument("--quick", action="store_true", help="120 transfers with one example per style (default: full, 3780)")
-    ev.add_argument("--methods", nargs="+", default=["identity", "stgcn", "ours"], metavar="METHOD",
-                    help=f"some of {', '.join(METHODS)} (default: %(default)s)")
+    ev.add_argument("--methods", nargs="+", default=["identity", "park", "ours"], metavar="METHOD",
+                    help=f"some of {', '.join(METHODS)}; older names run as the method they stand for: "
+                         f"{', '.join(f'{a} ({b})' for a, b in ALIASES.items())} (default: %(default)s)")
     ev.add_argument("--iterations", type=_style_option("iterations"), help="learning iterations per style example (default: learn's)")
     ev.add_argument("--strengths", type=float, nargs="+", help="run each variant of ours at these --strength values "
                     "(one row each; tradeoff.png draws the curves)")
@@ -879,7 +882,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--split", choices=["test", "val"], default="test",
                     help="clips to evaluate on: val to choose settings, test to report (default: %(default)s)")
     ev.add_argument("--examples-pool", type=int, help="style examples drawn from this many clips per style (default with an ours method: 1 quick, 3 full; otherwise all)")
-    ev.add_argument("--stgcn-weights", type=Path, help="Park stylizer weights for stgcn/stgcn-raw (default: the shipped ones)")
+    ev.add_argument("--park-weights", "--stgcn-weights", dest="park_weights", type=Path,
+                    help="Park stylizer weights for park/park-raw (default: the shipped ones; --stgcn-weights: the "
+                         "older name)")
     ev.add_argument("--seed", type=_style_option("seed"), default=0,
                     help="seed for example draws and noise (default: %(default)s)")
     ev.add_argument("--unseen", action="store_true",

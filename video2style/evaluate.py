@@ -3,13 +3,16 @@
 Methods (names as on the command line):
 
 - ``identity``: the content clip unchanged (baseline);
-- ``stgcn``: Park et al.'s stylizer, style code from the style example through E, then what
-  ``apply --method stgcn`` does (rotations fitted to its position channels, foot cleanup) and
-  encoding again; ``stgcn-raw``: its output features as they come;
+- ``park``: Park et al.'s stylizer, style code from the style example through E, then what
+  ``apply --method park`` does (rotations fitted to its position channels, foot cleanup) and
+  encoding again; ``park-raw``: its output features as they come;
 - ``ours``: Hu et al.'s on-the-fly method as ``learn`` + ``apply`` run it: one style learned per
   distinct style example (cached for the run and shared by the variants that learn the same way),
   content neutralised when the motion encoder reads it as styled, foot cleanup;
 - variants of ours (:data:`VARIANTS`): ablations of the learning loss and of how the style is applied.
+
+Older names (:data:`video2style.methods.ALIASES`: ``stgcn``, ``stgcn-raw``) run, and name their rows, as the
+methods they stand for.
 
 Learning has a fixed budget of iterations per example (:class:`transfer.style.StyleConfig`), so
 style examples are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or
@@ -33,7 +36,7 @@ from motioncore.cleanup import cleanup_feet
 from motioncore.files import atomic_write_text
 from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
-from video2style.methods import METHODS, VARIANTS
+from video2style.methods import METHODS, VARIANTS, method_names
 
 APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing",
                 "decode", "limb_guard")  # not used in learning
@@ -43,7 +46,7 @@ HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, wit
 def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, decoder_for=lambda content, example: decode):
     """Wrap a method returning normalised features so its output goes through decoding (``decoder_for(content
     motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
-    the positions as ``apply --method stgcn`` does, or as :func:`transfer.apply.decoder` says for a style, its
+    the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
     stray-limb guard included), foot cleanup and encoding again."""
     def transfer(content, style, style_label, content_label):
         out = features_fn(content, style, style_label, content_label)
@@ -129,11 +132,12 @@ class OnTheFly:
         return apply_style_features(model, self.m.prior, self._neutral(content), config, step, self.seed)
 
 
-def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, stgcn_weights: Path | None = None,
+def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, park_weights: Path | None = None,
                   strengths: list[float] | None = None, iterations: int | None = None,
                   style_cache: Path | None = None, models_dir: Path | None = None, exclude_styles: tuple[str, ...] = (),
                   words: str | None = None) -> tuple[dict, dict]:
-    """``({row name: method}, {row name: OnTheFly})`` for the requested method names (``stgcn_weights``: default
+    """``({row name: method}, {row name: OnTheFly})`` for the requested method names (older names: as
+    :func:`video2style.methods.method_names` says; ``park_weights``: default
     the shipped ones). Variants of ours get one row per strength in ``strengths`` (default: their own setting).
     ``models_dir``: the prior and motion encoder from this folder instead of the shipped ones, with the content
     clips for learning drawn without ``exclude_styles`` (the unseen-style protocol); ``words``: the style words
@@ -142,6 +146,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
     from transfer.dataset import MotionDataset
     from transfer.style import StyleConfig
 
+    names = method_names(names)
     unknown = [n for n in names if n not in METHODS]
     if unknown:
         raise ValueError(f"evaluate: unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
@@ -151,13 +156,13 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
     for name in names:
         if name == "identity":
             methods[name] = identity_transfer
-        elif name in ("stgcn", "stgcn-raw"):
-            from evaluation.park.infer import park_method
-            from video2style.park_apply import load_stylizer
+        elif name in ("park", "park-raw"):
+            from park.infer import park_method
+            from video2style.park_apply import park_model
 
-            method = park_method(load_stylizer(stgcn_weights), seed)
-            methods[name] = method if name == "stgcn-raw" else cleaned(method, test.mean, test.std,
-                                                                        lambda content, example: decode_via_positions)
+            method = park_method(park_model(park_weights), seed)
+            methods[name] = method if name == "park-raw" else cleaned(method, test.mean, test.std,
+                                                                       lambda content, example: decode_via_positions)
         else:
             from transfer.apply import decoder
             from video2style.pipeline import (
@@ -193,7 +198,7 @@ def unseen_models_dir() -> Path:
 
 
 def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[str] | None = None, seed: int = 0,
-             examples_pool: int | None = None, progress=print, stgcn_weights: Path | None = None,
+             examples_pool: int | None = None, progress=print, park_weights: Path | None = None,
              split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
              style_cache: Path | None = None, unseen: bool = False, unseen_models: Path | None = None,
              words: str | None = None) -> Iterator[str]:
@@ -217,7 +222,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
         raise FileNotFoundError(f"{data_dir}: no dataset cache (build it with video2style dataset)")
     if split not in ("test", "val"):
         raise ValueError(f"evaluate: expected split 'test' or 'val', got {split!r}")
-    names = list(methods or ["identity", "stgcn", "ours"])
+    names = method_names(methods or ["identity", "park", "ours"])
     if examples_pool is None and any(n.startswith("ours") for n in names):
         examples_pool = 1 if quick else 3
     t0 = time.time()
@@ -231,7 +236,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
                 if not (models_dir / f).is_file():
                     raise FileNotFoundError(f"{models_dir / f}: no held-out model (train it with train-prior / "
                                             f"train-encoder --exclude-styles {' '.join(HELD_OUT_STYLES)})")
-    fns, learners = build_methods(names, data_dir, seed, progress, stgcn_weights, strengths, iterations, style_cache,
+    fns, learners = build_methods(names, data_dir, seed, progress, park_weights, strengths, iterations, style_cache,
                                   models_dir, excluded, words)
     if unseen:
         per_content = None if quick else UNSEEN_FULL["per_content"] // (2 if split == "val" else 1)

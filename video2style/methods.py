@@ -57,4 +57,10 @@ VARIANTS = {
     "ours-w4": {"rec_windows": 4},  # L_rec on four windows of the example per iteration
     "ours-w4-s11": {"rec_windows": 4, "style_scale": 1.1},
 }
-METHODS = ("identity", "stgcn", "stgcn-raw", *VARIANTS)
+METHODS = ("identity", "park", "park-raw", *VARIANTS)
+ALIASES = {"stgcn": "park", "stgcn-raw": "park-raw"}  # older names that still work
+
+
+def method_names(names) -> list[str]:
+    """``names`` with :data:`ALIASES` replaced by the names they stand for, each once, in order (unknown names kept)."""
+    return list(dict.fromkeys(ALIASES.get(n, n) for n in names))

@@ -1,4 +1,4 @@
-"""``video2style apply --method stgcn``: Park et al.'s multi-domain stylizer over BVH files.
+"""``video2style apply --method park``: Park et al.'s multi-domain stylizer (:mod:`park`) over BVH files.
 
 Style codes come from noise (``seed``, several variants at once), from a reference clip, or
 from interpolating two codes (two seeds in one domain, or one seed in two domains). Output goes
@@ -27,8 +27,9 @@ from video2style.pipeline import (
 
 
 @lru_cache(maxsize=2)
-def load_stylizer(path: Path | None = None, device: str = "cpu"):
-    from evaluation.park.infer import load_park
+def park_model(path: Path | None = None, device: str = "cpu"):
+    """:func:`park.infer.load_park` of ``path`` (default: the shipped ``park_stylizer.safetensors``), cached."""
+    from park.infer import load_park
 
     return load_park(path or weights_path("park_stylizer.safetensors"), device)
 
@@ -37,7 +38,7 @@ MAX_VARIANTS = 64  # outputs per clip: each is a BVH and a preview panel
 
 
 @dataclass
-class StgcnRequest:
+class ParkRequest:
     """What to generate: ``domain`` plus one style source (noise by default, or ``reference``), optionally ``mix``."""
 
     domain: str
@@ -67,9 +68,9 @@ class StgcnRequest:
                                      f"--seed takes), got {self.mix[:40]!r}") from None
 
 
-def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> list[tuple[torch.Tensor, str]]:
+def style_codes(model, request: ParkRequest, joint_map: dict | None = None) -> list[tuple[torch.Tensor, str]]:
     """``[(code (style_dim,), tag)]`` for the request."""
-    from evaluation.park.infer import code_from_noise, code_from_reference
+    from park.infer import code_from_noise, code_from_reference, mixed_code
 
     request.validate(list(model.config.domains))
     if request.reference is not None:
@@ -83,7 +84,7 @@ def style_codes(model, request: StgcnRequest, joint_map: dict | None = None) -> 
         else:
             b, tag_b = code_from_noise(model, request.mix, request.seed)[0], request.mix
         alphas = torch.linspace(0, 1, request.mix_steps).tolist()
-        return [(torch.lerp(a, b, alpha), f"{request.domain}-{tag_b}-{alpha:.2f}") for alpha in alphas]
+        return [(mixed_code(a, b, alpha), f"{request.domain}-{tag_b}-{alpha:.2f}") for alpha in alphas]
     codes = code_from_noise(model, request.domain, request.seed, request.variants)
     return [(c, f"{request.domain}-s{request.seed + i}" if request.variants > 1 else request.domain) for i, c in enumerate(codes)]
 
@@ -94,7 +95,7 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
 
     With ``clean`` the feet are cleaned by IK; ``skating``, if given, receives each output's skating ratios.
     """
-    from evaluation.park.infer import generate
+    from park.infer import generate
 
     content = clip.canonical
     mean, std = model.mean.cpu(), model.std.cpu()  # the motion code runs on the CPU, the model anywhere
@@ -113,9 +114,9 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
     return out
 
 
-def apply_stgcn_file(model, path: Path, out_dir: Path, request: StgcnRequest, joint_map: dict | None = None,
+def apply_park_file(model, path: Path, out_dir: Path, request: ParkRequest, joint_map: dict | None = None,
                      preview: bool = True) -> dict:
-    """Stylise one BVH with the ST-GCN stylizer; writes ``out_dir/<name>[_<tag>].bvh`` and a preview."""
+    """Stylise one BVH with Park et al.'s stylizer; writes ``out_dir/<name>[_<tag>].bvh`` and a preview."""
     t0 = time.time()
     clip = read_clip(path, joint_map)
     codes = style_codes(model, request, joint_map)

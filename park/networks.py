@@ -1,8 +1,8 @@
 """Park et al. 2021 networks on the canonical skeleton: stylizer G, style encoder E, mapping network F, discriminator D.
 
-Everything is built from :class:`evaluation.stgcn.STGCNBlock` (temporal kernel 3, spatial-configuration
+Everything is built from :class:`park.graph.STGCNBlock` (temporal kernel 3, spatial-configuration
 partitions, leaky ReLU). Inputs and outputs are normalised features ``(B, T, D)``; the graph layout is
-:func:`evaluation.stgcn.features_to_graph` and its exact inverse.
+:func:`park.graph.features_to_graph` and its exact inverse.
 
 Graph pooling (Park §5.2) averages consecutive joints within a body part, 21 -> 11 -> 5 nodes
 (:data:`LEVEL1_GROUPS`, :data:`LEVEL2_GROUPS`), together with temporal average pooling by 2; unpooling
@@ -24,7 +24,9 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from evaluation.stgcn import (
+from motioncore.representation import FEATURES
+from motioncore.skeleton import CANONICAL
+from park.graph import (
     GRAPH_CHANNELS,
     STGCNBlock,
     canonical_adjacency,
@@ -37,8 +39,6 @@ from evaluation.stgcn import (
     pooled_graph,
     skeleton_edges,
 )
-from motioncore.representation import FEATURES
-from motioncore.skeleton import CANONICAL
 from transfer.captions import STYLES
 
 _N = CANONICAL.skeleton.index

@@ -19,12 +19,11 @@ from pathlib import Path
 
 import torch
 
-from evaluation.classifiers import labelled_clips
-from evaluation.park.losses import LossWeights, d_loss, g_loss
-from evaluation.park.networks import Discriminator, ParkConfig, ParkModel, he_init
 from motioncore.representation import FEATURES
+from park.losses import LossWeights, d_loss, g_loss
+from park.networks import Discriminator, ParkConfig, ParkModel, he_init
 from transfer.checkpoints import RunCheckpoint, save_model
-from transfer.dataset import MotionDataset
+from transfer.dataset import MotionDataset, labelled_clips
 from transfer.device import resolve_device
 from transfer.shipped import weights_dir
 from transfer.training import train_loop, update_ema
@@ -124,7 +123,7 @@ class ParkTraining:
 
     def init_from(self, weights_path: Path) -> None:
         """Start G/E/F (and their EMA copies) from exported weights; the widths must match the config."""
-        from evaluation.park.infer import load_park
+        from park.infer import load_park
 
         exported = load_park(weights_path)
         if list(exported.config.channels) != list(self.model.config.channels):

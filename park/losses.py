@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import torch
 from torch.nn import functional as F
 
-from evaluation.park.networks import Discriminator, ParkModel
+from park.networks import Discriminator, ParkModel
 
 
 @dataclass

@@ -1,6 +1,7 @@
 """Spatial-temporal graph convolution (ST-GCN, Yan et al. 2018) on the canonical skeleton.
 
-Shared by the motion classifiers (``evaluation/classifiers.py``) and Park et al.'s stylizer.
+The layer of Park et al.'s stylizer (:mod:`park.networks`), shared with the motion classifiers
+(``evaluation/classifiers.py``).
 
 Graph and partitions (Park et al. 2021 §5.1): nodes are the canonical joints, edges the bones of
 :data:`CANONICAL`. The 1-hop neighbour set of node ``i`` is split into three subsets by the

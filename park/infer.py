@@ -15,8 +15,8 @@ from pathlib import Path
 import torch
 from safetensors.torch import load_file
 
-from evaluation.park.networks import ParkConfig, ParkModel
 from motioncore.representation import FEATURES, decode_positions
+from park.networks import ParkConfig, ParkModel
 from transfer.checkpoints import load_config
 from transfer.device import model_device, resolve_device
 
@@ -29,7 +29,7 @@ def load_park(path: Path | str, device: str | torch.device = "cpu") -> ParkModel
     inputs on any device and return results on the input's device (codes on the model's)."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with evaluation.park.train.train_park")
+        raise FileNotFoundError(f"{path}: no Park stylizer weights; train them with park.train.train_park")
     try:
         model = ParkModel(load_config(path, ParkConfig))
         model.load_state_dict(load_file(str(path)))
@@ -95,9 +95,14 @@ def stylize_reference(model: ParkModel, content: torch.Tensor, reference: torch.
     return generate(model, content, code_from_reference(model, reference, domain))
 
 
+def mixed_code(code_a: torch.Tensor, code_b: torch.Tensor, alpha: float) -> torch.Tensor:
+    """The interpolated code ``(1 - alpha) code_a + alpha code_b`` ``(style_dim,)`` (within or across domains)."""
+    return torch.lerp(code_a.reshape(-1), code_b.reshape(-1), float(alpha))
+
+
 def mix(model: ParkModel, content: torch.Tensor, code_a: torch.Tensor, code_b: torch.Tensor, alpha: float) -> torch.Tensor:
-    """Stylise with the interpolated code ``(1 - alpha) code_a + alpha code_b`` (within or across domains)."""
-    return generate(model, content, torch.lerp(code_a.reshape(-1), code_b.reshape(-1), float(alpha)))
+    """Stylise with :func:`mixed_code` of the two codes."""
+    return generate(model, content, mixed_code(code_a, code_b, alpha))
 
 
 def park_method(model: ParkModel, seed: int = 0):
