@@ -11,8 +11,8 @@ Methods (names as on the command line):
   content neutralised when the motion encoder reads it as styled, foot cleanup;
 - variants of ours (:data:`VARIANTS`): ablations of the learning loss and of how the style is applied.
 
-Older names (:data:`video2style.methods.ALIASES`: ``stgcn``, ``stgcn-raw``) run, and name their rows, as the
-methods they stand for.
+Older names (:data:`video2style.methods.ALIASES`: ``stgcn``, variants that now equal another) run, and name
+their rows, as the methods they stand for.
 
 Learning has a fixed budget of iterations per example (:class:`transfer.style.StyleConfig`), so
 style examples are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or
