@@ -88,7 +88,7 @@ def _filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, padlen: int) -> np.nd
     return y[padlen:len(y) - padlen] if padlen > 0 else y
 
 
-def _windows(x: np.ndarray, size: int) -> np.ndarray:
+def _centred_windows(x: np.ndarray, size: int) -> np.ndarray:
     """Centred windows ``(T, size)`` over ``x (T,)``, edges repeated (scipy.ndimage's mode "nearest")."""
     half = size // 2
     return np.lib.stride_tricks.sliding_window_view(np.pad(x, (half, size - 1 - half), mode="edge"), size)
@@ -97,17 +97,17 @@ def _windows(x: np.ndarray, size: int) -> np.ndarray:
 def percentile_1d(x: np.ndarray, percentile: float, size: int) -> np.ndarray:
     """Sliding percentile of ``x (T,)`` over ``size`` frames, as ``scipy.ndimage.percentile_filter``."""
     rank = min(size - 1, int(size * percentile / 100.0))
-    return np.partition(_windows(x, size), rank, axis=1)[:, rank].copy()
+    return np.partition(_centred_windows(x, size), rank, axis=1)[:, rank].copy()
 
 
 def maximum_1d(x: np.ndarray, size: int) -> np.ndarray:
     """Sliding maximum, as ``scipy.ndimage.maximum_filter1d(mode="nearest")``."""
-    return _windows(x, size).max(axis=1)
+    return _centred_windows(x, size).max(axis=1)
 
 
 def mean_1d(x: np.ndarray, size: int) -> np.ndarray:
     """Sliding mean, as ``scipy.ndimage.uniform_filter1d(mode="nearest")``."""
-    return _windows(x, size).mean(axis=1)
+    return _centred_windows(x, size).mean(axis=1)
 
 
 def interpolate_gaps(x: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -112,7 +112,7 @@ def neutral_caption(motion_encoder, text_encoder, x: torch.Tensor, mode: str = "
     return reading, text_encoder.encode([content_caption(reading.content)])
 
 
-def _windows(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], Callable[[int, int], torch.Tensor]]:
+def _window_views(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], Callable[[int, int], torch.Tensor]]:
     """``(starts, windows)``: ``windows(i, j)`` is windows ``i..j-1`` of ``x (T, D)`` as ``(j - i, L, D)``, copied
     only when asked for (a long clip's windows are never all in memory at once)."""
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
@@ -137,7 +137,7 @@ def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, conf
     Runs on the prior's device; the result is on ``x``'s."""
     device = model_device(prior)
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
-    starts, windows = _windows(x.to(device), window, overlap)
+    starts, windows = _window_views(x.to(device), window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
     parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, config, gen, config.neutralize_step),
                         starts, windows, neutral_text.to(device).expand(len(starts), -1))
@@ -154,7 +154,7 @@ def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, ste
     if neutral_text is not None and config.neutralize_step > 0:
         x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
-    starts, windows = _windows(x, window, overlap)
+    starts, windows = _window_views(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
     chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), starts, windows)
     return crossfade(chunks, starts, x.shape[0]).to(out_device)

@@ -178,7 +178,8 @@ def smooth_time(x: torch.Tensor, sigma: float) -> torch.Tensor:
     return torch.nn.functional.conv1d(padded, k, groups=x.shape[-1]).transpose(1, 2)
 
 
-def _windows(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
+def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
+    """``count`` random starts of ``window``-frame windows in ``n`` frames (all 0 when the clip is no longer)."""
     if n <= window:
         return [0] * count
     return torch.randint(n - window + 1, (count,), generator=generator).tolist()
@@ -249,7 +250,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
             stopped_by = "time"
             break
         with record_function("learn: L_rec"):
-            starts = _windows(example.shape[0], config.window, config.rec_windows, gen)
+            starts = _random_window_starts(example.shape[0], config.window, config.rec_windows, gen)
             loss_rec = reconstruction_loss(model, scheduler, torch.stack([pair[s:s + config.window] for s in starts]),
                                            torch.stack([example[s:s + config.window] for s in starts]), config, gen)
         with record_function("learn: L_s"):  # neutral content, stylised, must read as "<caption>, <style> style" (eq. 11)
@@ -347,7 +348,7 @@ def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor,
 
 def _crop(x: torch.Tensor, window: int, gen: torch.Generator) -> torch.Tensor:
     out = torch.zeros(window, x.shape[1])
-    s = _windows(x.shape[0], window, 1, gen)[0]
+    s = _random_window_starts(x.shape[0], window, 1, gen)[0]
     part = x[s:s + window]
     out[: part.shape[0]] = part
     return out

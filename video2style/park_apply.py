@@ -90,10 +90,10 @@ def style_codes(model, request: ParkRequest, joint_map: dict | None = None) -> l
 
 
 def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean: bool = True,
-                 skating: list | None = None) -> list[tuple[Motion, str]]:
+                 foot_ratios: list | None = None) -> list[tuple[Motion, str]]:
     """Each code applied to the clip's canonical motion -> ``[(motion, tag)]`` on the content's path.
 
-    With ``clean`` the feet are cleaned by IK; ``skating``, if given, receives each output's skating ratios.
+    With ``clean`` the feet are cleaned by IK; ``foot_ratios``, if given, receives each output's skating ratios.
     """
     from park.infer import generate
 
@@ -108,8 +108,8 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
         motion = decode_via_positions(feats, content.fps, **start)  # its position channels are the better ones
         if clean:
             motion, ratios = cleanup_feet_measured(motion, content)
-            if skating is not None:
-                skating.append(ratios)
+            if foot_ratios is not None:
+                foot_ratios.append(ratios)
         out.append((motion, tag))
     return out
 
@@ -121,7 +121,7 @@ def apply_park_file(model, path: Path, out_dir: Path, request: ParkRequest, join
     clip = read_clip(path, joint_map)
     codes = style_codes(model, request, joint_map)
     ratios: list[dict] = []
-    results = stylize_clip(model, clip, codes, skating=ratios)
+    results = stylize_clip(model, clip, codes, foot_ratios=ratios)
     info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
             "skating_before": max(r["skating_before"] for r in ratios), "skating_after": max(r["skating_after"] for r in ratios),
             "skating_content": skating(clip.canonical)}
