@@ -17,7 +17,7 @@ from pathlib import Path
 
 from lifting.blazepose.synthetic import write_walking_clip
 from lifting.blazepose.tracker import PoseTracker
-from lifting.lift import track
+from lifting.tracking import track
 from lifting.video import iter_frames, video_info
 
 

@@ -74,9 +74,9 @@ def accuracy(args) -> None:
 
     torch.set_num_threads(1)
     from lifting.blazepose.tracker import PoseTracker
-    from lifting.lift import track
     from lifting.reconstruct import lift_track
     from lifting.render_humanoid import frame_camera, write_humanoid_video
+    from lifting.tracking import track
     from motioncore.motion import resample
     from motioncore.representation import decode
     from transfer.dataset import MotionDataset

@@ -1,6 +1,6 @@
 """Tracked landmarks -> canonical 3-D motion: gap filling, low-pass, skeleton fit, root path (torch).
 
-Steps of :func:`lift_track` (after :func:`lifting.lift.track` has run BlazePose over every frame):
+Steps of :func:`lift_track` (after :func:`lifting.tracking.track` has run BlazePose over every frame):
 
 1. the longest run of frames with the person whose gaps are at most ``max_gap_s`` (default
    0.5 s); gaps inside it are filled by linear interpolation; less than ``min_seconds`` (1 s)

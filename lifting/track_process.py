@@ -3,7 +3,7 @@ without sharing a GIL with the tracking loop (:func:`lifting.lift.lift_video` us
 that has not imported that side yet; measured in docs/RESULTS.md, "The first hour").
 
 The child (``python -m lifting.track_process VIDEO START END PROGRESS CORES ROTATE PARENT``) runs
-:func:`lifting.lift.track` with ONNX inference on one core fewer than the machine has (``CORES``; at most
+:func:`lifting.tracking.track` with ONNX inference on one core fewer than the machine has (``CORES``; at most
 the tracker's default threads), so the parent's import keeps a core: on this 2-core box that
 took a 73-frame video from 2.40 s to 2.18 s (medians of 8 alternating runs) and a 230-frame one from
 4.7 s to 4.9 s, with identical output. It writes one pickled reply to stdout: ``("ok", TrackResult)``,
@@ -40,7 +40,7 @@ class ChildFailedError(RuntimeError):
 
 
 def track_in_child(path: str | Path, progress: bool = False, span: Span = (None, None), rotate: int = 0) -> TrackResult:
-    """:func:`lifting.lift.track` of ``path`` run by a child Python; raises the same one-line errors."""
+    """:func:`lifting.tracking.track` of ``path`` run by a child Python; raises the same one-line errors."""
     cores = max(1, (os.cpu_count() or 2) - 1)  # one left to this process's import
     args = [str(path), *("-" if s is None else repr(float(s)) for s in span), "1" if progress else "0", str(cores),
             str(int(rotate)), str(os.getpid())]
@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> None:
     from lifting.blazepose.assets import ModelUnavailableError
     from lifting.blazepose.runtime import DEFAULT_THREADS
     from lifting.blazepose.tracker import PoseTracker
-    from lifting.lift import track
+    from lifting.tracking import track
 
     span = tuple(None if s == "-" else float(s) for s in (start, end))
     try:

@@ -18,7 +18,8 @@ import numpy as np
 from lifting.blazepose.results import POSE_CONNECTIONS
 from lifting.camera import DEFAULT_FOV_DEG
 from lifting.filtering import DEFAULT_CUTOFF_HZ
-from lifting.lift import Progress, _Reporter, lift_video
+from lifting.lift import lift_video
+from lifting.tracking import FrameProgress, Progress
 from motioncore.files import publish, temp_beside
 
 if TYPE_CHECKING:
@@ -154,7 +155,7 @@ def _write_preview(video: Path, lifted: LiftResult, out: Path, progress: Progres
     tmp = str(temp_beside(out, ".mp4"))
     size = (width + height, height)
     writer = None
-    bar = _Reporter(progress, n, f"{out.name}: preview")
+    bar = FrameProgress(progress, n, f"{out.name}: preview")
     try:
         writer = Mp4Writer(tmp, float(tr.fps), size, name=out)
         first = round(float(tr.times[0]) * tr.fps) if len(tr.times) else 0  # the span's first frame (--start)

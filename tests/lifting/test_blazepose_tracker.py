@@ -1,4 +1,4 @@
-"""PoseTracker / lifting.lift.track on synthetic humanoid renders (needs the models)."""
+"""PoseTracker / lifting.tracking.track on synthetic humanoid renders (needs the models)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from lifting.blazepose.synthetic import (
     humanoid_joints,
     write_walking_clip,
 )
-from lifting.lift import track
+from lifting.tracking import track
 
 # BlazePose index -> synthetic joint (the figure faces the camera: its left is image right)
 JOINTS = {

@@ -196,8 +196,8 @@ def test_truncated_avi(tracker, tmp_path):
 
 
 def test_short_gaps_are_interpolated(rendered, tracker, tmp_path):
-    from lifting.lift import track
     from lifting.reconstruct import lift_track
+    from lifting.tracking import track
 
     video, truth = rendered
     result = track(video, tracker=tracker)
@@ -227,8 +227,8 @@ def test_the_background_import_hands_its_error_to_the_caller():
 
 def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path, monkeypatch):
     from lifting import track_process
-    from lifting.lift import track
     from lifting.track_process import track_in_child
+    from lifting.tracking import track
 
     for span in ((None, None), (0.5, None)):
         here, there = track(rendered[0], tracker=tracker, span=span), track_in_child(rendered[0], span=span)
