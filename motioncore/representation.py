@@ -225,6 +225,21 @@ def decode_positions(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL, start
     return out
 
 
+def positions_from_rotations(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """Joints 1.. in the hips' facing frame ``(*, T, J-1, 3)``, as the position channels hold them, but implied by
+    the rotation channels and the root height of ``feats (*, T, D)`` through forward kinematics on the canonical
+    bones (differentiable). On features that :func:`encode` wrote, it equals their position channels."""
+    fs = FeatureSpec(spec.num_joints)
+    if feats.shape[-1] != fs.dim:
+        raise ValueError(f"positions_from_rotations: expected (*, T, {fs.dim}), got {tuple(feats.shape)}")
+    lrot = quat.from_6d(feats[..., fs.rotations].unflatten(-1, (spec.num_joints, 6)))
+    lpos = spec.skeleton.offsets.to(feats).expand(*lrot.shape[:-1], 3)
+    height = feats[..., fs.root_height]
+    root = torch.cat([torch.zeros_like(height), height, torch.zeros_like(height)], -1)
+    lpos = torch.cat([root[..., None, :], lpos[..., 1:, :]], dim=-2)
+    return fk(lrot, lpos, spec.skeleton.parents)[1][..., 1:, :]
+
+
 def _place_joints(feats: torch.Tensor, spec: CanonicalSpec, yaw: torch.Tensor, root: torch.Tensor,
                   hips: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
     """:func:`decode_positions`' per-frame part: the joints of ``feats (*, T, D)`` around the root path."""

@@ -102,3 +102,55 @@ def test_bf16_steps_train_and_the_validation_loss_matches_fp32_at_the_same_weigh
     assert abs(float(losses["bf16"] - losses["fp32"])) < 0.02 * float(losses["fp32"])
     with pytest.raises(ValueError, match="expected precision"):
         diffusion_loss(model, DiffusionScheduler(), *args[:4], args[4], torch.Generator(), "fp16")
+
+
+def test_positions_from_rotations_equal_the_position_channels_of_encoded_clips():
+    """The FK consistency term is zero on real features: FK of the rotation channels and root height puts every
+    joint where the position channels do (the facing frame, the root's ground point at the origin)."""
+    from motioncore.representation import FEATURES, encode, positions_from_rotations
+    from tests.helpers import random_motion
+
+    feats = encode(random_motion(seconds=2, seed=3))
+    implied = positions_from_rotations(feats.double())
+    held = feats[:, FEATURES.positions].double().unflatten(-1, (-1, 3))
+    assert implied.shape == held.shape
+    assert (implied - held).abs().max() < 1e-4  # metres; float32 features
+    batched = positions_from_rotations(torch.stack([feats, feats]))  # any leading dims
+    assert batched.shape == (2, *held.shape)
+    with pytest.raises(ValueError, match="expected"):
+        positions_from_rotations(feats[:, :-1])
+
+
+def test_fk_loss_is_zero_on_real_features_and_grows_with_a_bent_joint():
+    from motioncore.representation import FEATURES, encode
+    from tests.helpers import random_motion
+    from transfer.prior import fk_loss
+
+    x = encode(random_motion(seconds=1.5, seed=1))[None]
+    mean, std = torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim)
+    valid = torch.ones(1, 30, dtype=torch.bool)
+    assert float(fk_loss(x, x, valid, mean, std)) < 1e-4  # cm^2
+    bent = x.clone()
+    bent[..., FEATURES.rotations.start + 6 * 2: FEATURES.rotations.start + 6 * 3] = torch.tensor(
+        [0.0, 1.0, 0.0, -1.0, 0.0, 0.0])  # joint 2 turned 90 degrees: everything above it moves
+    assert float(fk_loss(bent, x, valid, mean, std)) > 10.0
+    with pytest.raises(ValueError, match="expected"):
+        fk_loss(x[..., :-1], x[..., :-1], valid, mean[:-1], std[:-1])
+
+
+def test_fk_weight_is_a_stage_a_finished_run_may_resume_with_and_its_log_gains_the_column(tmp_path):
+    import csv
+
+    cache, out = _cache(tmp_path), tmp_path / "run"
+    train_prior(cache, out, PriorTrainConfig(**TINY), max_minutes=5, max_steps=3, explicit=dict(TINY), progress=False)
+    stage = {"fk_weight": 0.05, "precision": "bf16"}
+    trainer = train_prior(cache, out, PriorTrainConfig(**stage), max_minutes=5, max_steps=5, explicit=stage,
+                          progress=False)
+    assert trainer.step == 5 and trainer.config.fk_weight == 0.05 and trainer.config.width == 32
+    with open(out / "log.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["step"]) for r in rows] == [1, 2, 3, 4, 5]
+    assert [r["fk"] for r in rows[:3]] == ["", "", ""] and all(float(r["fk"]) >= 0 for r in rows[3:])
+    with pytest.raises(ValueError, match="cannot resume with different settings.*width"):
+        train_prior(cache, out, PriorTrainConfig(width=64), max_minutes=5, max_steps=6, explicit={"width": 64},
+                    progress=False)

@@ -104,7 +104,8 @@ class RunCheckpoint:
     the optimizer named ``""`` has keys ``opt.<param>.<state>``) and the same step. Two files keep each one
     under the size a repository accepts for a committed campaign checkpoint; a checkpoint written as one
     file (older versions, moments inside ``path``) still resumes. Resuming with explicit settings that
-    differ from the saved config is an error, never a silent override. Tensors are saved from, and loaded
+    differ from the saved config is an error, never a silent override, except for the fields that the config's
+    class lists in ``STAGE_FIELDS`` (a new stage of the same run, e.g. the prior's precision or FK weight). Tensors are saved from, and loaded
     onto, the modules' own devices.
 
     ``param_names``: optimizer parameter ``id`` -> the name its moments are stored under.
@@ -144,7 +145,8 @@ class RunCheckpoint:
             meta = f.metadata()
         saved = json.loads(meta["config"])
         given = json.loads(json.dumps(explicit))  # tuples compare as the lists JSON gives back
-        clash = {k: (saved.get(k), v) for k, v in given.items() if k in saved and saved[k] != v}
+        stage = getattr(self.config, "STAGE_FIELDS", ())  # a new stage of the run may change these
+        clash = {k: (saved.get(k), v) for k, v in given.items() if k in saved and saved[k] != v and k not in stage}
         if clash:
             detail = ", ".join(f"{k}: checkpoint {a!r} vs given {b!r}" for k, (a, b) in clash.items())
             raise ValueError(f"{self.path}: cannot resume with different settings ({detail}); use a new output folder")

@@ -5,9 +5,11 @@ import csv
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import ClassVar
 
 import torch
 
+from motioncore.representation import FEATURES, positions_from_rotations
 from transfer.checkpoints import resumed_config, save_model
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
@@ -42,6 +44,13 @@ class PriorTrainConfig:
     # and losses; 1.6x faster on a CPU with avx512_bf16, docs/RESULTS.md); the validation loss stays fp32
     val_every: int = 250  # steps between validation losses (val.csv); 0 = none
     val_windows: int = 128  # fixed val windows, noise and steps: the validation loss is comparable over a run
+    # weight of the FK consistency term (:func:`fk_loss`): the joints implied by the predicted rotation channels
+    # against the clip's own joint positions, in cm^2; 0 = off. The campaign's last stage turns it on.
+    fk_weight: float = 0.0
+
+    # fields a run may change when it resumes (a new stage of the same run); any other given setting that
+    # differs from the checkpoint's is refused
+    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight")
 
 
 def caption_embeddings(dataset: MotionDataset) -> torch.Tensor:
@@ -57,10 +66,29 @@ def masked_mse(a: torch.Tensor, b: torch.Tensor, valid: torch.Tensor) -> torch.T
 PRECISIONS = ("fp32", "bf16")
 
 
-def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator, precision: str = "fp32"):
+def fk_loss(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor, mean: torch.Tensor,
+            std: torch.Tensor) -> torch.Tensor:
+    """FK consistency, in cm^2: normalised features ``pred, x0 (B, T, D)`` over ``valid (B, T)``, ``mean, std (D,)``;
+    the mean squared distance (per coordinate) between the joints that ``pred``'s rotation channels and root
+    height place (:func:`motioncore.representation.positions_from_rotations`) and ``x0``'s joint-position
+    channels. Zero for real features: it ties the rotation channels to where the joints are."""
+    if pred.shape != x0.shape or pred.shape[-1] != FEATURES.dim or mean.shape != (FEATURES.dim,):
+        raise ValueError(f"fk_loss: expected pred, x0 (B, T, {FEATURES.dim}) and mean (D,), got "
+                         f"{tuple(pred.shape)}, {tuple(x0.shape)}, {tuple(mean.shape)}")
+    mean, std = mean.to(pred), std.to(pred)
+    implied = positions_from_rotations(pred * std + mean)  # (B, T, J-1, 3), metres
+    target = (x0 * std + mean)[..., FEATURES.positions]
+    return masked_mse(100.0 * implied.flatten(-2), 100.0 * target, valid)
+
+
+def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator, precision: str = "fp32",
+                   fk_weight: float = 0.0, norm: tuple[torch.Tensor, torch.Tensor] | None = None):
     """x0-prediction loss at random steps, plus a loss on frame-to-frame differences: ``x0 (B, T, D)``,
     ``valid (B, T)``, ``text (B, E)``, ``drop (B,)``, moved to the model's device; the steps and the noise are
-    drawn on the CPU from ``generator``. ``precision`` "bf16": the model's forward under bfloat16 autocast."""
+    drawn on the CPU from ``generator``. ``precision`` "bf16": the model's forward under bfloat16 autocast.
+    ``fk_weight`` > 0 adds :func:`fk_loss` times it, which needs ``norm`` = the features' ``(mean, std)``."""
+    if fk_weight > 0 and norm is None:
+        raise ValueError("diffusion_loss: fk_weight > 0 needs norm=(mean, std)")
     if precision not in PRECISIONS:
         raise ValueError(f"diffusion_loss: expected precision in {PRECISIONS}, got {precision!r}")
     device = model_device(model)
@@ -71,7 +99,12 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
     with torch.autocast(device.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
         pred = model(x_t, t, text, valid, drop=drop)
     rec, vel = x0_losses(pred.float(), x0, valid)
-    return rec + velocity_weight * vel, {"rec": rec.item(), "vel": vel.item()}
+    loss, logs = rec + velocity_weight * vel, {"rec": rec.item(), "vel": vel.item()}
+    if fk_weight > 0:
+        fk = fk_loss(pred.float(), x0, valid, *norm)
+        loss = loss + fk_weight * fk
+        logs["fk"] = fk.item()
+    return loss, logs
 
 
 def x0_losses(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -161,7 +194,8 @@ def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_min
     def loss_fn(m, step):
         x0, valid, idx = data.sample_windows(config.batch_size, config.window, gen)
         drop = torch.rand(config.batch_size, generator=gen) < config.text_drop
-        return diffusion_loss(m, scheduler, x0, valid, text[idx], drop, config.velocity_weight, gen, config.precision)
+        return diffusion_loss(m, scheduler, x0, valid, text[idx], drop, config.velocity_weight, gen, config.precision,
+                              config.fk_weight, (data.mean, data.std))
 
     trainer.run(loss_fn, max_steps, max_minutes, progress=progress, evaluate=evaluate, eval_every=config.val_every or 1)
     export_prior(trainer, data, out_dir / "denoiser.safetensors", data_dir)

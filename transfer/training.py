@@ -48,7 +48,12 @@ def train_loop(checkpoint: RunCheckpoint, iterate: Callable[[], dict], log_path:
             row = {"step": None, "time_s": None, **iterate()}
             row.update(step=checkpoint.step, time_s=round(elapsed0 + time.time() - start, 1))
             if writer is None:
-                writer = csv.DictWriter(writer_file, fieldnames=fields or list(row), extrasaction="ignore")
+                names = fields or list(row)
+                if log_path.stat().st_size > 0:  # a resumed run: keep the file's columns, add any new ones
+                    writer_file.close()
+                    names = _widen_log(log_path, names)
+                    writer_file = open(log_path, "a", newline="")  # noqa: SIM115 - closed in the finally below
+                writer = csv.DictWriter(writer_file, fieldnames=names, extrasaction="ignore")
                 if log_path.stat().st_size == 0:
                     writer.writeheader()
             writer.writerow(row)
@@ -64,6 +69,22 @@ def train_loop(checkpoint: RunCheckpoint, iterate: Callable[[], dict], log_path:
         writer_file.close()
         checkpoint.elapsed = elapsed0 + time.time() - start
         checkpoint.save()
+
+
+def _widen_log(path: Path, names: list[str]) -> list[str]:
+    """The columns a resumed run appends to the CSV log at ``path``: the file's own, then any of ``names`` it
+    lacks (a new stage logs a new loss term); the file is rewritten with the wider header when there are new
+    ones, its earlier rows left blank in them."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header = rows[0] if rows else []
+    new = [n for n in names if n not in header]
+    if new and header:
+        from motioncore.files import atomic_write_text
+
+        lines = [",".join(header + new)] + [",".join(r + [""] * len(new)) for r in rows[1:]]
+        atomic_write_text(path, "\n".join(lines) + "\n")
+    return header + new if header else names
 
 
 def lr_factor(step: int, warmup: int, decay_start: int = 0, decay_steps: int = 0, final: float = 1.0) -> float:

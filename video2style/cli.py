@@ -583,6 +583,16 @@ def _data_inputs(data: Path) -> list[tuple[str, Path]]:
                                             for name in ("features.safetensors", "clips.json", "split.json")]
 
 
+def _non_negative(v: str) -> float:
+    try:
+        x = float(v)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {v}") from None
+    if not 0 <= x < float("inf"):  # nan too
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {v}")
+    return x
+
+
 def _non_negative_int(v: str) -> int:
     try:
         x = int(v)
@@ -807,7 +817,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="default: see transfer.prior.PriorTrainConfig; a resumed run keeps its own")
     t.add_argument("--precision", choices=["fp32", "bf16"], default=None,
                    help="bf16: the training forward under bfloat16 autocast, 1.6x faster on CPUs with avx512_bf16 "
-                        "(default: fp32; a resumed run keeps its own)")
+                        "(default: fp32; a resumed run may change it)")
+    t.add_argument("--fk-weight", dest="fk_weight", type=_non_negative, default=None,
+                   help="weight of the FK consistency term (the joints the predicted rotations place against the "
+                        "clip's joint positions, cm^2); the campaign's last stage: 0.05 (default: 0; a resumed run "
+                        "may change it)")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
                    help="steps between validation losses, logged to OUT/val.csv (default: 250; 0: none)")
     _add_exclude_styles(t)
