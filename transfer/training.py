@@ -2,7 +2,7 @@
 periodic safetensors checkpoints (:class:`transfer.checkpoints.RunCheckpoint`).
 
 :class:`Trainer` runs it for one model with one AdamW optimizer and an EMA copy (prior, motion encoder,
-classifiers); Park et al.'s GAN (:mod:`evaluation.park.train`) runs the same loop with its own iteration.
+classifiers); Park et al.'s GAN (:mod:`park.train`) runs the same loop with its own iteration.
 """
 from __future__ import annotations
 

@@ -66,9 +66,12 @@ def load_models_from(prior_path: Path, encoder_path: Path, device: str | torch.d
 
 
 def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5,
-                  device: str = "cpu") -> list[Motion]:
+                  device: str = "cpu", from_positions: bool = False) -> list[Motion]:
     """Text-to-motion samples of the shipped prior (run on ``device``), one per caption, as canonical motions
-    standing on the floor."""
+    standing on the floor. ``from_positions``: the rotations fitted to the samples' joint-position channels
+    (:func:`motioncore.ik_fit.decode_via_positions`), whose feet the prior places better than its rotation
+    channels do (docs/RESULTS.md, the prior's gait); else decoded from the rotation channels."""
+    from motioncore.ik_fit import decode_via_positions
     from transfer.sampling import generate
     from transfer.scheduler import DiffusionScheduler
 
@@ -76,7 +79,8 @@ def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: i
     gen = torch.Generator().manual_seed(seed)
     x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), m.text_encoder.encode(captions), frames,
                  steps, guidance, gen).cpu()
-    return [place_on_floor(decode(f * m.std + m.mean)) for f in x]
+    to_motion = (lambda f: decode_via_positions(f, CANONICAL.fps)) if from_positions else decode
+    return [place_on_floor(to_motion(f * m.std + m.mean)) for f in x]
 
 
 @dataclass
