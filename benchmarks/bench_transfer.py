@@ -44,7 +44,7 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
-    from transfer.style import Style, style_model
+    from transfer.style_file import Style, style_model
     from video2style.pipeline import apply_file, learn_file, load_models
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -23,7 +23,8 @@ from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.representation import encode
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
-from transfer.style import Style, StyleConfig, style_model
+from transfer.style_config import LearnConfig
+from transfer.style_file import Style, style_model
 from video2style import pipeline
 
 
@@ -35,7 +36,7 @@ def learn(clip: Path, out: Path, iterations: int, whole: bool) -> dict:
         pipeline.MAX_EXAMPLE_SECONDS = 1e9
     try:
         t0 = time.time()
-        pipeline.learn_file(clip, out, text="a person walks", config=StyleConfig(iterations=iterations),
+        pipeline.learn_file(clip, out, text="a person walks", config=LearnConfig(iterations=iterations),
                             allow_partial=True, progress=lambda s: stamps.append((time.time() - t0, s.strip())))
         total = time.time() - t0
     finally:

@@ -4,7 +4,7 @@
 
 The example is a 10 s prior sample of "a person walks, elderly style" (project-made); content clips come
 from the dataset cache (``--data``, default the user cache) or the bundled content bank. The breakdown
-uses the ``record_function`` labels inside :func:`transfer.style.learn_style` (pair generation happens
+uses the ``record_function`` labels inside :func:`transfer.learn.learn_style` (pair generation happens
 once per style, outside the iterations). Run it on a quiet machine; the shares hold under load too.
 """
 from __future__ import annotations
@@ -24,13 +24,14 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from motioncore.representation import encode
-    from transfer.style import StyleConfig, learn_style
+    from transfer.learn import learn_style
+    from transfer.style_config import LearnConfig
     from video2style.pipeline import content_source, load_models, prior_samples
 
     m = load_models()
     example = (encode(prior_samples(["a person walks, elderly style"], frames=200, seed=1)[0]) - m.mean) / m.std
     data = content_source(progress=lambda s: None)
-    config = replace(StyleConfig(), iterations=args.iterations)
+    config = replace(LearnConfig(), iterations=args.iterations)
     t0 = time.perf_counter()
     with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
         learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, "elderly", "walk", config)
@@ -50,7 +51,7 @@ def main() -> None:
     many = time.perf_counter() - t0
     per_it = (many - one) / (args.iterations - 1)
     print(f"without the profiler: {per_it:.3f} s / iteration, {one - per_it:.1f} s fixed (neutral pair, model copy); "
-          f"{StyleConfig.iterations} iterations (the default) -> {one - per_it + StyleConfig.iterations * per_it:.0f} s")
+          f"{LearnConfig.iterations} iterations (the default) -> {one - per_it + LearnConfig.iterations * per_it:.0f} s")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@
 For each style x content clip, the result is made as ``apply`` makes it (:func:`video2style.pipeline.stylize_motion`),
 and for each hand and foot its time-mean place in the hips' facing frame (canonical body) is compared with the
 segment from the content's place to the example's (:func:`evaluation.metrics.limb_stray`, after the
-style's stray-limb guard: ``StyleConfig.limb_guard``). Prints the stray of
+style's stray-limb guard: ``ApplyConfig.limb_guard``). Prints the stray of
 each limb in cm and the worst per result; target: under 15 cm. ``--learn`` learns each example with the
 defaults first (style files kept in ``--styles-dir``, reused when present).
 """
@@ -26,16 +26,16 @@ def main() -> None:
     ap.add_argument("--strength", type=float, default=0.5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--decode", choices=["rotations", "guarded", "positions"],
-                    help="apply with this decoding instead of the style's own (StyleConfig.decode)")
+                    help="apply with this decoding instead of the style's own (ApplyConfig.decode)")
     ap.add_argument("--limb-guard", type=float,
-                    help="apply with this stray-limb guard (metres; 0: off) instead of the style's own (StyleConfig.limb_guard)")
+                    help="apply with this stray-limb guard (metres; 0: off) instead of the style's own (ApplyConfig.limb_guard)")
     args = ap.parse_args()
 
     import torch
 
     from evaluation.metrics import LIMBS, limb_stray
     from motioncore.representation import encode
-    from transfer.style import Style, style_model
+    from transfer.style_file import Style, style_model
     from video2style.pipeline import learn_file, load_models, read_clip, stylize_motion
 
     styles = list(args.style)

@@ -68,7 +68,7 @@ def main() -> None:
     from evaluation.classifiers import default_weights, load_classifier, run_batched
     from motioncore.representation import decode, encode
     from transfer.dataset import MotionDataset
-    from transfer.style import Style, style_model
+    from transfer.style_file import Style, style_model
     from video2style.paths import default_dataset_dir
     from video2style.pipeline import learn_file, load_models, read_clip, stylize_motion
 

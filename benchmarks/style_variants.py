@@ -3,7 +3,7 @@
     python benchmarks/style_variants.py --example demo_out/pose/elderly.bvh --style elderly \\
         --content LIBRARY_DIR --variants '{"paper": {"lambda_p": 0}, "pp0.2": {}}'
 
-For each variant (``StyleConfig`` overrides), learns the style from ``--example`` with the dataset
+For each variant (overrides of the style's configs, :func:`transfer.style_config.split_config`), learns the style from ``--example`` with the dataset
 cache's train split as content motions, applies it (K from the config, no neutralisation) to
 every Bandai-2 BVH in ``--content`` (named ``dataset-2_<content>_<style>_<n>.bvh``), and prints
 the content classifier's accuracy against the file's content, the style classifier's accuracy
@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -26,7 +25,7 @@ def main() -> None:
     ap.add_argument("--style", required=True, help="style words; also the style classifier's target label")
     ap.add_argument("--content", type=Path, required=True, help="folder of Bandai-2 BVH clips")
     ap.add_argument("--text", default="walk", help="content of the example (default: %(default)s)")
-    ap.add_argument("--variants", default='{"default": {}}', help="JSON: name -> StyleConfig overrides")
+    ap.add_argument("--variants", default='{"default": {}}', help="JSON: name -> config overrides")
     ap.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1] / "cache" / "dataset")
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args()
@@ -36,7 +35,9 @@ def main() -> None:
     from motioncore.representation import encode
     from transfer.apply import apply_style_features
     from transfer.dataset import MotionDataset
-    from transfer.style import StyleConfig, learn_style, style_model
+    from transfer.learn import learn_style
+    from transfer.style_config import split_config
+    from transfer.style_file import style_model
     from video2style.pipeline import load_models, read_clip
 
     m = load_models()
@@ -50,11 +51,12 @@ def main() -> None:
     xs = [(encode(read_clip(c).canonical) - m.mean) / m.std for c in clips]
     target = style_clf.config.classes.index(args.style)
     for name, overrides in json.loads(args.variants).items():
-        config = replace(StyleConfig(), **overrides)
+        learned, config = split_config(overrides)
         t0 = time.time()
-        style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, args.style, args.text, config)
+        style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, args.style, args.text, learned,
+                                  apply=config)
         model = style_model(m.prior, style)
-        raw = [apply_style_features(model, m.prior, x, config, config.transfer_step) * m.std + m.mean for x in xs]
+        raw = [apply_style_features(model, m.prior, x, learned, config, learned.transfer_step) * m.std + m.mean for x in xs]
         with torch.no_grad():
             pred = [content_clf.config.classes[int(content_clf(content_clf.standardize(r)[None]).argmax())] for r in raw]
             probs = [torch.softmax(style_clf(style_clf.standardize(r)[None]), -1)[0] for r in raw]

@@ -26,7 +26,7 @@ def _kill_an_apply_worker(stop: threading.Event, killed: list) -> None:
 
 
 def test_a_ray_batch_survives_a_killed_worker_and_reports_bad_inputs(tmp_path):
-    from transfer.style_config import StyleConfig
+    from transfer.style_config import LearnConfig
     from video2style.batch_ray import run_batch_ray
 
     videos, content, out = tmp_path / "videos", tmp_path / "content", tmp_path / "out"
@@ -41,7 +41,7 @@ def test_a_ray_batch_survives_a_killed_worker_and_reports_bad_inputs(tmp_path):
     killer = threading.Thread(target=_kill_an_apply_worker, args=(stop, killed), daemon=True)
     killer.start()
     try:
-        report = run_batch_ray(videos, content, out, learn_config=StyleConfig(iterations=25), workers=2, chunk=8,
+        report = run_batch_ray(videos, content, out, learn_config=LearnConfig(iterations=25), workers=2, chunk=8,
                                progress=None)
     finally:
         stop.set()

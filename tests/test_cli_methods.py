@@ -140,9 +140,7 @@ def test_evaluate_identity_and_park_on_a_tiny_cache(tmp_path, park_weights, monk
 
 
 def test_evaluate_takes_the_older_names_of_methods_and_weights():
-    from dataclasses import replace
-
-    from transfer.style_config import StyleConfig
+    from transfer.style_config import split_config
     from video2style.cli import build_parser
     from video2style.methods import ALIASES, METHODS, VARIANTS, method_names
 
@@ -150,7 +148,7 @@ def test_evaluate_takes_the_older_names_of_methods_and_weights():
     assert str(args.park_weights) == "w.safetensors" and args.methods == ["identity", "park", "ours"]
     assert method_names(["identity", "stgcn", "stgcn-raw", "ours-diff", "ours"]) == ["identity", "park", "park-raw", "ours"]
     assert all(target in METHODS and alias not in METHODS for alias, target in ALIASES.items())
-    configs = {name: replace(StyleConfig(), **settings) for name, settings in VARIANTS.items()}
+    configs = {name: split_config(settings) for name, settings in VARIANTS.items()}
     assert len({repr(c) for c in configs.values()}) == len(configs)  # no two variants alike
 
 

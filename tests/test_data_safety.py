@@ -161,8 +161,8 @@ def _fake_apply(monkeypatch, gate: threading.Event | None = None, started: threa
 
     monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
     monkeypatch.setattr("video2style.pipeline.load_models", lambda device="cpu": type("M", (), {"prior": None})())
-    monkeypatch.setattr("transfer.style.Style.load", staticmethod(load))
-    monkeypatch.setattr("transfer.style.style_model", lambda prior, style: None)
+    monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
+    monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
 
 
 def test_a_second_apply_into_the_same_folder_is_refused_while_the_first_writes(tmp_path, monkeypatch, capsys):

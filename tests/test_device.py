@@ -97,10 +97,11 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
     it would be on a GPU. CPU noise moved to the device, CPU text embeddings and a CPU clip are taken in."""
     from transfer.apply import apply_style_features
     from transfer.denoiser import Denoiser, DenoiserConfig
+    from transfer.learn import reconstruction_loss
     from transfer.lora import add_lora
     from transfer.sampling import generate
     from transfer.scheduler import DiffusionScheduler
-    from transfer.style import StyleConfig, reconstruction_loss
+    from transfer.style_config import ApplyConfig, LearnConfig
 
     meta = torch.device("meta")
     torch.manual_seed(0)
@@ -110,18 +111,18 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
     assert {p.device for p in style.parameters()} == {meta}
     x, text, gen = torch.randn(130, FEATURES.dim), torch.randn(1, 384), torch.Generator().manual_seed(0)
     for mode in ("difference", "regenerate"):
-        config = StyleConfig(apply_mode=mode, delta_smoothing=1.0)
-        out = apply_style_features(style, prior, x.to(meta), config, 300, neutral_text=text)
+        config = ApplyConfig(apply_mode=mode, delta_smoothing=1.0)
+        out = apply_style_features(style, prior, x.to(meta), LearnConfig(), config, 300, neutral_text=text)
         assert out.device == meta and out.shape == x.shape
     assert generate(prior, DiffusionScheduler(), text, 40, 3, 2.5, gen).device == meta
     window = x[None, :80].to(meta)
-    assert reconstruction_loss(style.train(), DiffusionScheduler(), window, window, StyleConfig(), gen).device == meta
+    assert reconstruction_loss(style.train(), DiffusionScheduler(), window, window, LearnConfig(), gen).device == meta
 
 
 @pytest.mark.skipif(not (SHIPPED / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 def test_device_cpu_and_auto_give_the_default_result(no_gpu, tmp_path):
     from transfer.lora import add_lora, lora_state
-    from transfer.style import Style
+    from transfer.style_file import Style
     from video2style.cli import main
     from video2style.pipeline import load_models
 

@@ -60,8 +60,8 @@ def fake_pipeline(monkeypatch):
     monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
     monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
     monkeypatch.setattr("video2style.pipeline.load_models", lambda device="cpu": type("M", (), {"prior": None})())
-    monkeypatch.setattr("transfer.style.Style.load", staticmethod(load))
-    monkeypatch.setattr("transfer.style.style_model", lambda prior, style: None)
+    monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
+    monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
     return calls
 
 
@@ -145,7 +145,7 @@ def test_apply_refuses_two_clips_that_would_write_one_output(tmp_path):
 
 
 def test_two_style_writers_do_not_share_a_temporary_file(tmp_path):
-    from transfer.style import Style
+    from transfer.style_file import Style
 
     path = tmp_path / "s.v2s"
     styles = [Style({"w": torch.full((4, 4), float(i))}, {"style": f"s{i}"}, None) for i in range(2)]
@@ -229,7 +229,7 @@ _JSON = st.recursive(st.none() | st.booleans() | st.integers(-10**9, 10**9) | st
 def test_fuzzed_style_files_are_refused_in_one_line_or_loaded(tmp_path_factory, meta, shape, dtype, bad):
     from safetensors.torch import save_file
 
-    from transfer.style import Style
+    from transfer.style_file import Style
 
     path = tmp_path_factory.mktemp("fuzz") / "f.v2s"
     t = torch.ones(shape, dtype=dtype)
@@ -264,7 +264,7 @@ def test_a_crafted_field_name_with_a_newline_still_gives_one_line(tmp_path):
     """Found by the fuzz test on a fresh clone: an unknown config field named "\\n" split the error."""
     from safetensors.torch import save_file
 
-    from transfer.style import Style
+    from transfer.style_file import Style
 
     path = tmp_path / "f.v2s"
     save_file({"blocks.0.ff2.lora_a": torch.ones(2)}, str(path), metadata={"video2style": json.dumps({"config": {"\n": 1}})})

@@ -10,8 +10,10 @@ from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig
+from transfer.learn import learn_style, partial_reason
 from transfer.motion_encoder import MotionEncoder, MotionEncoderConfig
-from transfer.style import StyleConfig, learn_style, partial_reason, style_model
+from transfer.style_config import ApplyConfig, LearnConfig
+from transfer.style_file import style_model
 
 
 class HashedText:
@@ -38,7 +40,7 @@ def toys(tmp_path_factory):
 
 
 def _config(**kw):
-    return StyleConfig(iterations=4, pair_steps=3, transfer_steps=2, content_batch=2, window=24, **kw)
+    return LearnConfig(iterations=4, pair_steps=3, transfer_steps=2, content_batch=2, window=24, **kw)
 
 
 def test_learn_style_trains_only_adapters_and_records_metadata(toys):
@@ -97,7 +99,7 @@ def test_learning_budget_is_iterations_and_a_time_cap_is_reported(toys, monkeypa
     data = MotionDataset(cache, "train")
     # a busy machine: every clock reading is 10 s later than the last; without a cap it changes nothing
     clock = iter(range(0, 10**6, 10))
-    monkeypatch.setattr("transfer.style.time.time", lambda: float(next(clock)))
+    monkeypatch.setattr("transfer.learn.time.time", lambda: float(next(clock)))
     slow, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
     monkeypatch.undo()
     quick, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
@@ -121,7 +123,7 @@ def test_variants_that_learn_alike_share_their_styles(toys):
     models = SimpleNamespace(prior=prior, motion_encoder=encoder, text_encoder=text)
     shared = {}
     regen = OnTheFly(models, data, _config(), shared=shared)
-    diff = OnTheFly(models, data, _config(apply_mode="difference"), strength=0.0, shared=shared)
+    diff = OnTheFly(models, data, _config(), ApplyConfig(apply_mode="difference"), strength=0.0, shared=shared)
     other = OnTheFly(models, data, replace(_config(), lambda_p=0.0), shared=shared)
     content, style = test.clip(3), test.clip(0)
     regen(content, style, "elderly", "walk")

@@ -111,7 +111,7 @@ def test_apply_guards_the_decoded_result_only_when_the_config_says_so():
     from motioncore.motion import Motion
     from motioncore.representation import FEATURES, decode
     from transfer.apply import decoder, guard_stray_limbs
-    from transfer.style_config import StyleConfig
+    from transfer.style_config import ApplyConfig
 
     result = random_motion(seconds=3, seed=7, amplitude=0.3)
     feats = encode(result)
@@ -120,7 +120,7 @@ def test_apply_guards_the_decoded_result_only_when_the_config_says_so():
     content = Motion(result.skeleton, result.lrot, lowered, result.fps)  # every place 30 cm lower than the result's
     example = feats.clone()
     example[:, FEATURES.positions] -= torch.tensor([0.0, 0.3, 0.0]).repeat(CANONICAL.num_joints - 1)
-    off = StyleConfig(limb_guard=0.0, decode="rotations")
+    off = ApplyConfig(limb_guard=0.0, decode="rotations")
     assert guard_stray_limbs(result, content, example, off) is result
     assert decoder(off, reference=content, example=example) is decode  # off: the plain decode
     on = replace(off, limb_guard=0.08)
@@ -139,14 +139,20 @@ def test_apply_guards_the_decoded_result_only_when_the_config_says_so():
 
 
 def test_limb_guard_is_a_validated_apply_field_and_old_style_files_get_the_default():
-    from transfer.style_config import StyleConfig
-    from transfer.style_schema import check_config_value, validate_config
-    from video2style.evaluate import APPLY_FIELDS
+    from transfer.style_config import (
+        APPLY_FIELDS,
+        LEARN_FIELDS,
+        ApplyConfig,
+        check_config_value,
+        split_config,
+    )
+    from transfer.style_file import validate_config
 
-    assert StyleConfig().limb_guard == pytest.approx(0.08) and "limb_guard" in APPLY_FIELDS
+    assert ApplyConfig().limb_guard == pytest.approx(0.08) and "limb_guard" in APPLY_FIELDS
+    assert "limb_guard" not in LEARN_FIELDS  # learning never reads it
     validate_config({"limb_guard": 0.0})
     validate_config({"limb_guard": 0.1})
-    assert StyleConfig(**validate_config({"decode": "guarded"})).limb_guard == StyleConfig.limb_guard  # a file without it
+    assert split_config(validate_config({"decode": "guarded"}))[1].limb_guard == ApplyConfig.limb_guard  # a file without it
     for bad in (-0.1, 1.5, float("nan"), "on", True):
         with pytest.raises(ValueError, match="limb_guard"):
             validate_config({"limb_guard": bad})

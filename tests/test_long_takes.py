@@ -10,8 +10,10 @@ import torch
 import transfer.apply as apply_mod
 from motioncore.representation import FEATURES
 from tests.test_style import _trained_style, tiny_denoiser
+from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
-from transfer.style import StyleConfig, neutralize, style_model, stylize
+from transfer.style_config import ApplyConfig, LearnConfig
+from transfer.style_file import style_model
 from transfer.windows import crossfade, window_starts
 
 
@@ -29,7 +31,7 @@ def blend_whole_list(chunks: list[torch.Tensor], starts: list[int], n: int) -> t
     return out / total.clamp_min(1e-6)
 
 
-def whole_list_apply(model, prior, x, config, step, seed, neutral_text=None, batch=2, window=80, overlap=20):
+def whole_list_apply(model, prior, x, learned, config, step, seed, neutral_text=None, batch=2, window=80, overlap=20):
     """apply_style_features the whole-list way: all windows copied up front, all results kept."""
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts = window_starts(x.shape[0], window, overlap)
@@ -41,12 +43,12 @@ def whole_list_apply(model, prior, x, config, step, seed, neutral_text=None, bat
         parts, gen, text = all_windows(x), torch.Generator().manual_seed(seed + 1), neutral_text.expand(len(starts), -1)
         done = []
         for i in range(0, len(starts), batch):
-            done.extend(neutralize(prior, scheduler, parts[i:i + batch], text[i:i + batch], config, gen,
+            done.extend(neutralize(prior, scheduler, parts[i:i + batch], text[i:i + batch], learned, gen,
                                    config.neutralize_step))
         x = blend_whole_list(done, starts, x.shape[0])
     parts, gen, done = all_windows(x), torch.Generator().manual_seed(seed), []
     for i in range(0, len(starts), batch):
-        done.extend(stylize(model, scheduler, parts[i:i + batch], config, gen, step=step, prior=prior))
+        done.extend(stylize(model, scheduler, parts[i:i + batch], learned, config, gen, step=step, prior=prior))
     return blend_whole_list(done, starts, x.shape[0])
 
 
@@ -57,11 +59,11 @@ def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):
     prior = tiny_denoiser()
     model = style_model(prior, _trained_style(prior))
     x = torch.randn(frames, FEATURES.dim, generator=torch.Generator().manual_seed(frames))
-    config = StyleConfig(apply_mode=mode, neutralize_step=200)
+    learned, config = LearnConfig(), ApplyConfig(apply_mode=mode, neutralize_step=200)
     text = torch.randn(1, 384, generator=torch.Generator().manual_seed(1))
     for neutral in (None, text):
-        got = apply_mod.apply_style_features(model, prior, x.clone(), config, 300, 3, neutral)
-        want = whole_list_apply(model, prior, x.clone(), config, 300, 3, neutral)
+        got = apply_mod.apply_style_features(model, prior, x.clone(), learned, config, 300, 3, neutral)
+        want = whole_list_apply(model, prior, x.clone(), learned, config, 300, 3, neutral)
         assert torch.equal(got, want)
 
 

@@ -110,7 +110,8 @@ shipped = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), r
 
 @pytest.fixture(scope="module")
 def style_and_model(tmp_path_factory):
-    from transfer.style import Style, StyleConfig, style_model
+    from transfer.style_config import LearnConfig
+    from transfer.style_file import Style, style_model
     from video2style.demo import SAMPLES
     from video2style.pipeline import learn_file, load_models
 
@@ -119,7 +120,7 @@ def style_and_model(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("VIDEO2STYLE_DATA", str(out.parent / "no-cache"))  # the bundled content bank
     try:
-        learn_file(SAMPLES / "walk_prior.bvh", out, "s", None, StyleConfig(iterations=2, pair_steps=3),
+        learn_file(SAMPLES / "walk_prior.bvh", out, "s", None, LearnConfig(iterations=2, pair_steps=3),
                    progress=lambda s: None, allow_partial=True)
     finally:
         mp.undo()

@@ -8,7 +8,8 @@ import torch
 
 from motioncore.bvh import read_bvh
 from transfer.shipped import SHIPPED as WEIGHTS
-from transfer.style import Style, StyleConfig, style_model
+from transfer.style_config import LearnConfig
+from transfer.style_file import Style, style_model
 from video2style.demo import SAMPLES
 from video2style.pipeline import (
     PartialStyleError,
@@ -31,7 +32,7 @@ def one_thread():
 def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))  # use the bundled content bank
     lines = []
-    config = StyleConfig(iterations=2, pair_steps=3)
+    config = LearnConfig(iterations=2, pair_steps=3)
     with pytest.raises(PartialStyleError, match="only 2 fine-tuning iterations"):  # too few to show: refused
         learn_file(SAMPLES / "walk_prior.bvh", tmp_path / "old.v2s", "old", None, config, progress=lines.append)
     assert not (tmp_path / "old.v2s").exists()

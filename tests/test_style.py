@@ -1,3 +1,4 @@
+import pytest
 import torch
 
 from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
@@ -5,13 +6,11 @@ from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
-from transfer.apply import (
-    apply_style_features,
-    strength_to_step,
-)
+from transfer.apply import apply_style_features
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
-from transfer.style import Style, StyleConfig, style_model
+from transfer.style_config import ApplyConfig, LearnConfig, strength_to_step
+from transfer.style_file import Style, style_model
 from transfer.windows import crossfade, window_starts
 
 
@@ -73,17 +72,20 @@ def test_bad_style_file_is_a_clear_error(tmp_path):
 
 def test_strength_maps_to_k():
     assert strength_to_step(0.5) == 300 and strength_to_step(1.0) == 600 and strength_to_step(0.001) == 1
+    for bad in (0.0, -0.1, 1.5):
+        with pytest.raises(ValueError, match="strength"):
+            strength_to_step(bad)
 
 
 def test_apply_keeps_length_and_trajectory():
     prior = tiny_denoiser()
     model = style_model(prior, _trained_style(prior))
     x = torch.randn(150, FEATURES.dim)
-    out = apply_style_features(model, prior, x, StyleConfig(), step=300, seed=0)
+    out = apply_style_features(model, prior, x, LearnConfig(), ApplyConfig(), step=300, seed=0)
     assert out.shape == x.shape
     for s in (FEATURES.root_rvel, FEATURES.root_lvel):
         assert torch.allclose(out[:, s], x[:, s], atol=1e-5)
-    again = apply_style_features(model, prior, x, StyleConfig(), step=300, seed=0)
+    again = apply_style_features(model, prior, x, LearnConfig(), ApplyConfig(), step=300, seed=0)
     assert torch.equal(out, again)  # seeded
 
 
@@ -134,25 +136,31 @@ def test_cleanup_removes_sliding_of_a_planted_foot():
 
 
 def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
-    from transfer.apply import strength_settings
+    from dataclasses import replace
+
+    from transfer.style_config import strength_settings
 
     prior = tiny_denoiser()
     model = style_model(prior, _trained_style(prior))
     x = torch.randn(90, FEATURES.dim)
-    diff = StyleConfig(apply_mode="difference", style_scale=1.0)
-    assert strength_settings(0.0, diff) == (300, 0.0) and strength_settings(0.5, diff) == (300, 1.0)
-    assert strength_settings(0.5, StyleConfig()) == (300, 0.95)  # the default scale, chosen on the unseen val split
-    assert torch.allclose(apply_style_features(model, prior, x, StyleConfig(apply_mode="difference", style_scale=0.0), 300), x,
+    learned, diff = LearnConfig(), ApplyConfig(apply_mode="difference", style_scale=1.0)
+    assert strength_settings(0.0, learned, diff) == (300, replace(diff, style_scale=0.0))
+    assert strength_settings(0.5, learned, diff) == (300, diff)
+    assert strength_settings(0.5, learned, ApplyConfig())[1].style_scale == 0.95  # the default, chosen on the unseen val split
+    assert strength_settings(None, learned, diff) == (300, diff)  # the style as learned
+    with pytest.raises(ValueError, match="strength: expected a number from 0 to 1"):
+        strength_settings(1.5, learned, diff)
+    assert torch.allclose(apply_style_features(model, prior, x, learned, replace(diff, style_scale=0.0), 300), x,
                           atol=1e-6)
-    one = apply_style_features(model, prior, x, diff, 300)
-    two = apply_style_features(model, prior, x, StyleConfig(apply_mode="difference", style_scale=2.0), 300)
+    one = apply_style_features(model, prior, x, learned, diff, 300)
+    two = apply_style_features(model, prior, x, learned, replace(diff, style_scale=2.0), 300)
     assert torch.allclose(two - x, 2 * (one - x), atol=1e-5)  # linear in the scale: strength moves monotonically
     # the same style through the prior alone: no difference at all
-    assert torch.allclose(apply_style_features(prior, prior, x, diff, 300), x, atol=1e-6)
+    assert torch.allclose(apply_style_features(prior, prior, x, learned, diff, 300), x, atol=1e-6)
 
 
 def test_style_guidance_weight_one_is_the_style_model():
-    from transfer.style import StyleGuided
+    from transfer.edit import StyleGuided
 
     prior = tiny_denoiser()
     model = style_model(prior, _trained_style(prior))
@@ -179,7 +187,7 @@ def test_reading_neutralises_only_confident_styled_clips():
 def test_smooth_time_keeps_constants_and_damps_fast_oscillation():
     import math
 
-    from transfer.style import smooth_time
+    from transfer.edit import smooth_time
 
     c = torch.full((1, 40, 3), 2.5)
     assert torch.allclose(smooth_time(c, 3.0), c) and torch.equal(smooth_time(c, 0.0), c)
@@ -206,12 +214,10 @@ def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_
 
 
 def test_reconstruction_loss_over_several_windows_is_their_mean():
-    """L_rec on a batch of windows (StyleConfig.rec_windows) averages the windows' losses: with a model that
+    """L_rec on a batch of windows (LearnConfig.rec_windows) averages the windows' losses: with a model that
     predicts zeros the noise does not matter, so the batch's loss is the mean of the single-window ones."""
-    import pytest
-
+    from transfer.learn import reconstruction_loss
     from transfer.scheduler import DiffusionScheduler
-    from transfer.style import reconstruction_loss
 
     class Zeros(torch.nn.Module):
         def forward(self, x_t, t, text=None, valid=None):
@@ -220,7 +226,7 @@ def test_reconstruction_loss_over_several_windows_is_their_mean():
 
     torch.manual_seed(0)
     a, b = torch.randn(2, 1, 40, FEATURES.dim).unbind(0)
-    sched, cfg = DiffusionScheduler(), StyleConfig()
+    sched, cfg = DiffusionScheduler(), LearnConfig()
     one = [reconstruction_loss(Zeros(), sched, w, w, cfg, torch.Generator().manual_seed(1)) for w in (a, b)]
     both = reconstruction_loss(Zeros(), sched, torch.cat([a, b]), torch.cat([a, b]), cfg, torch.Generator().manual_seed(1))
     assert torch.allclose(both, (one[0] + one[1]) / 2, atol=1e-6)

@@ -9,7 +9,7 @@ from safetensors.torch import save_file
 
 from motioncore.representation import FEATURES
 from tests.test_style import _trained_style, tiny_denoiser
-from transfer.style import Style, style_model
+from transfer.style_file import Style, style_model
 
 
 def _write(path, meta, tensors):
@@ -83,10 +83,44 @@ def test_adapters_that_do_not_fit_the_model_are_one_line(tmp_path, good):
 def test_every_config_field_has_a_checked_range_and_the_defaults_pass():
     from dataclasses import asdict, fields
 
-    from transfer.style_config import StyleConfig
-    from transfer.style_schema import CONFIG_RANGES, validate_config
+    from transfer.style_config import (
+        CONFIG_RANGES,
+        ApplyConfig,
+        LearnConfig,
+        config_dict,
+        split_config,
+    )
+    from transfer.style_file import validate_config
 
-    assert {f.name for f in fields(StyleConfig)} == set(CONFIG_RANGES)
-    assert validate_config(asdict(StyleConfig())) == asdict(StyleConfig())
+    names = [f.name for f in fields(LearnConfig)] + [f.name for f in fields(ApplyConfig)]
+    assert sorted(names) == sorted(CONFIG_RANGES) and len(set(names)) == len(names)  # each field in one config
+    defaults = config_dict(LearnConfig(), ApplyConfig())
+    assert list(defaults) == list(CONFIG_RANGES) and validate_config(dict(defaults)) == defaults
+    assert split_config(defaults) == (LearnConfig(), ApplyConfig()) and split_config({}) == (LearnConfig(), ApplyConfig())
+    assert {**asdict(LearnConfig()), **asdict(ApplyConfig())} == defaults
     with pytest.raises(ValueError, match="config.decode: expected one of rotations, guarded, positions"):
         validate_config({"decode": "quaternions"})
+
+
+# a style file's config as learn wrote it before the config was split into LearnConfig and ApplyConfig
+# (asdict of the one StyleConfig, in its field order)
+CONFIG_BEFORE_THE_SPLIT = {
+    "pair_step": 950, "pair_steps": 30, "guidance": 2.5, "transfer_step": 300, "transfer_steps": 6, "rank": 8,
+    "lr": 0.002, "iterations": 40, "max_seconds": None, "lambda_s": 0.0, "content_batch": 8, "window": 80,
+    "rec_windows": 1, "seed": 0, "pair_generation": True, "lambda_p": 0.2, "apply_mode": "difference",
+    "style_scale": 0.95, "neutralize_step": 950, "guided_difference": False, "delta_smoothing": 0.0,
+    "lambda_stat": 0.0, "stat_std": True, "stat_reference": "pair", "decode": "guarded", "lambda_dir": 1.0,
+    "limb_guard": 0.08,
+}
+
+
+def test_a_style_file_from_before_the_config_split_loads_and_learn_writes_the_same_keys(tmp_path, good):
+    from transfer.style_config import config_dict
+
+    meta, tensors = good
+    meta["config"] = dict(CONFIG_BEFORE_THE_SPLIT, style_scale=1.1, lambda_p=0.5, limb_guard=0.0)
+    learned, applied = Style.load(_write(tmp_path / "old.v2s", meta, tensors)).configs()
+    assert (learned.lambda_p, applied.style_scale, applied.limb_guard) == (0.5, 1.1, 0.0)
+    assert json.dumps(config_dict(learned, applied)) == json.dumps(meta["config"])  # the same JSON, key for key
+    partial = Style.load(_write(tmp_path / "partial.v2s", good[0] | {"config": {"decode": "rotations"}}, tensors))
+    assert partial.configs()[1].decode == "rotations" and partial.configs()[0].transfer_step == 300  # defaults

@@ -16,8 +16,8 @@ from motioncore.representation import FEATURES, encode
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from tests.test_style import _trained_style, tiny_denoiser
-from transfer.style import Style, style_model
-from transfer.style_schema import CONFIG_RANGES, check_config_value, validate_config
+from transfer.style_config import CONFIG_RANGES, check_config_value
+from transfer.style_file import Style, style_model, validate_config
 from video2style.cli import main
 
 
@@ -92,7 +92,7 @@ def test_the_cli_accepts_exactly_the_schema_s_range_ends(field):
 
 @pytest.mark.parametrize("option", ["--style", "--text"])
 def test_learn_refuses_a_name_longer_than_a_style_file_may_hold(tmp_path, capsys, no_learning, option):
-    from transfer.style_schema import MAX_TEXT, validate_meta
+    from transfer.style_file import MAX_TEXT, validate_meta
 
     with pytest.raises(SystemExit):
         main(["learn", str(_clip(tmp_path / "c.bvh")), option, "x" * (MAX_TEXT + 1)])
@@ -162,11 +162,11 @@ def test_learn_uses_a_bounded_part_of_a_long_input_and_says_which(tmp_path, monk
 
     seen = {}
 
-    def learn_style(prior, enc, text_enc, data, example, words, content, config, prior_path, progress, show_bar):
+    def learn_style(prior, enc, text_enc, data, example, words, content, config, prior_path, progress, show_bar, apply):
         seen["frames"] = example.shape[0]
         return Style({}, {"style": words, "content": content, "iterations": 40, "iterations_planned": 40}), {}
 
-    monkeypatch.setattr("transfer.style.learn_style", learn_style)
+    monkeypatch.setattr("transfer.learn.learn_style", learn_style)
     monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": pipeline.Models(
         None, torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim), None, None, None))
     monkeypatch.setattr(pipeline, "content_source", lambda progress: None)

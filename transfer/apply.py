@@ -12,33 +12,10 @@ from motioncore.motion import Motion
 from motioncore.representation import FEATURES, decode, encode, facing_angle
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 from transfer.device import model_device
+from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
-from transfer.style import StyleConfig, neutralize, stylize
+from transfer.style_config import ApplyConfig, LearnConfig
 from transfer.windows import crossfade, window_starts
-
-MAX_STEP = 999
-
-
-def strength_to_step(strength: float) -> int:
-    """``--strength`` in (0, 1] -> the noise step K the content is taken to (0.5 -> K = 300, the paper's)."""
-    if not 0 < strength <= 1:
-        raise ValueError(f"strength: expected a number in (0, 1], got {strength}")
-    return max(1, min(MAX_STEP, round(600 * strength)))
-
-
-def strength_settings(strength: float, config: StyleConfig) -> tuple[int, float]:
-    """``--strength`` -> ``(K, scale)`` for :func:`transfer.style.stylize` under the style's ``apply_mode``.
-
-    regenerate: K = 600 * strength (0.5 -> 300, the paper's), the scale from the style's config;
-    difference: K from the style's config, scale = 2 * strength (0 -> the content unchanged,
-    0.5 -> the learned difference, 1 -> twice it).
-    """
-    if config.apply_mode == "difference":
-        if not 0 <= strength <= 1:
-            raise ValueError(f"strength: expected a number in [0, 1], got {strength}")
-        return config.transfer_step, 2.0 * strength * config.style_scale
-    return strength_to_step(strength), config.style_scale
-
 
 # Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
 # Bandai val original has a top similarity >= 0.82 and P(content) >= 0.5 at the 5th percentile; foreign clips
@@ -131,36 +108,39 @@ def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tenso
 
 
 @torch.no_grad()
-def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, config: StyleConfig, seed: int = 0,
-                        window: int = 80, overlap: int = 20) -> torch.Tensor:
-    """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``.
-    Runs on the prior's device; the result is on ``x``'s."""
+def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
+                        seed: int = 0, window: int = 80, overlap: int = 20) -> torch.Tensor:
+    """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``;
+    noised to ``config.neutralize_step`` and redrawn as the style's pair was (``learned``). Runs on the prior's
+    device; the result is on ``x``'s."""
     device = model_device(prior)
     scheduler = DiffusionScheduler(prior.config.num_train_steps)
     starts, windows = _window_views(x.to(device), window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
-    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, config, gen, config.neutralize_step),
+    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, learned, gen, config.neutralize_step),
                         starts, windows, neutral_text.to(device).expand(len(starts), -1))
     return crossfade(parts, starts, x.shape[0]).to(x.device)
 
 
 @torch.no_grad()
-def apply_style_features(model, prior, x: torch.Tensor, config: StyleConfig, step: int, seed: int = 0,
-                         neutral_text: torch.Tensor | None = None, window: int = 80, overlap: int = 20) -> torch.Tensor:
-    """Stylise normalised content features ``(T, D)``; ``neutral_text (1, E)`` first neutralises a styled clip.
+def apply_style_features(model, prior, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig, step: int,
+                         seed: int = 0, neutral_text: torch.Tensor | None = None, window: int = 80,
+                         overlap: int = 20) -> torch.Tensor:
+    """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` (``learned``: the style's learning config,
+    ``config`` its apply settings, ``step`` K); ``neutral_text (1, E)`` first neutralises a styled clip.
     Runs on the models' device (``model`` and ``prior`` on one); the result is on ``x``'s."""
     device = model_device(model)
     out_device, x = x.device, x.to(device)
     if neutral_text is not None and config.neutralize_step > 0:
-        x = neutralize_features(prior, x, neutral_text, config, seed, window, overlap)
+        x = neutralize_features(prior, x, neutral_text, learned, config, seed, window, overlap)
     scheduler = DiffusionScheduler(model.config.num_train_steps)
     starts, windows = _window_views(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
-    chunks = _in_batches(lambda p: stylize(model, scheduler, p, config, gen, step=step, prior=prior), starts, windows)
+    chunks = _in_batches(lambda p: stylize(model, scheduler, p, learned, config, gen, step=step, prior=prior), starts, windows)
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
-def decoder(config: StyleConfig, reference: Motion | None = None, example: torch.Tensor | None = None):
+def decoder(config: ApplyConfig, reference: Motion | None = None, example: torch.Tensor | None = None):
     """How a stylised result's features become a motion (``config.decode``): from the rotation channels
     (:func:`motioncore.representation.decode`), fitted to the position channels
     (:func:`motioncore.ik_fit.decode_via_positions`), or "guarded": the rotation channels except for a limb
@@ -189,7 +169,7 @@ def decoder(config: StyleConfig, reference: Motion | None = None, example: torch
     return decode_guarding
 
 
-def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, config: StyleConfig) -> Motion:
+def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, config: ApplyConfig) -> Motion:
     """A decoded canonical ``result`` of ``content`` (same frames) with each hand and foot whose time-mean place
     strays more than ``config.limb_guard`` metres off the segment from the content's place to the style
     ``example``'s (raw features ``(T', D)``) drawn back towards it (:func:`motioncore.limbs.guard_limbs`); the
@@ -204,14 +184,14 @@ def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, co
     return guarded
 
 
-def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, config: StyleConfig,
-                       step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True,
+def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, learned: LearnConfig,
+                       config: ApplyConfig, step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True,
                        example: torch.Tensor | None = None) -> Motion:
     """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
     any device; the motion and ``mean``/``std`` on the CPU). ``example``: the style example's raw features
     ``(T', D)``, for the stray-limb guard (``config.limb_guard``; none without it)."""
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
-    out = apply_style_features(model, prior, (encode(content) - mean) / std, config, step, seed, neutral_text)
+    out = apply_style_features(model, prior, (encode(content) - mean) / std, learned, config, step, seed, neutral_text)
     out = out.mul_(std).add_(mean)
     p0 = content.global_positions()[:1].double()
     result = decoder(config, reference=content, example=example)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),

@@ -25,7 +25,7 @@ def denoising_steps(model, scheduler: DiffusionScheduler, x_t, start: int, num_s
     enters each step ``t`` of the schedule (``start`` down to 0), then ``(-1, x0)``, the result.
 
     Lazy: each prediction is made when the next item is asked for, so a consumer that needs only the steps'
-    inputs (:func:`transfer.style.reconstruction_loss`) stops before the last one. The caller chooses
+    inputs (:func:`transfer.learn.reconstruction_loss`) stops before the last one. The caller chooses
     gradients (:func:`denoise` runs it under ``torch.no_grad``); tensors stay on ``x_t``'s device.
     """
     for t in scheduler.set_timesteps(num_steps, start).tolist():

@@ -1,14 +1,23 @@
-"""The hyperparameters of learning and applying a style: a plain dataclass (no torch), saved in each style
-file and read by ``--help`` without importing the models."""
+"""The hyperparameters of a style, in two plain dataclasses (no torch; ``--help`` reads them without importing
+the models): :class:`LearnConfig`, what learning uses (the noise levels and step counts it learns at are reused
+when the style is applied), and :class:`ApplyConfig`, what only applying uses. A style file keeps both in one JSON
+object, ``config`` (:func:`config_dict`, :func:`split_config`); :data:`CONFIG_RANGES` holds each field's range,
+checked for the command line's options and for a style file alike (:func:`check_config_value`). ``--strength``
+becomes apply settings in one place, :func:`strength_settings`, which checks it (:func:`check_strength`)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import asdict, dataclass, fields, replace
 
 MIN_ITERATIONS = 25  # fewer: a cruder style that changes the action more often (val split, docs/RESULTS.md)
+MAX_RANK = 64
+MAX_ITERATIONS = 10_000  # about 10 hours of learning on a 2-core CPU at 3.7 s per iteration
 
 
 @dataclass
-class StyleConfig:
+class LearnConfig:
+    """How a style is learned (Hu et al. 2024 §3.2-3.5; ``transfer.learn.learn_style``)."""
+
     pair_step: int = 950  # G
     pair_steps: int = 30  # DDIM steps from G to 0 for the neutral pair
     guidance: float = 2.5
@@ -26,6 +35,19 @@ class StyleConfig:
     seed: int = 0
     pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
     lambda_p: float = 0.2  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; see docs/RESULTS.md)
+    lambda_stat: float = 0.0  # word-free: the style's change on content shifts feature statistics as the example
+    # differs from its pair (transfer.style_losses.statistics_loss)
+    stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
+    stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
+    # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
+    lambda_dir: float = 1.0  # word-free: the change in the motion encoder's space points as example - pair does
+
+
+@dataclass
+class ApplyConfig:
+    """How a learned style is applied (``transfer.apply``); learning never reads these. A style file holds the
+    values it was learned with; ``--strength`` sets ``style_scale`` at apply (:func:`strength_settings`)."""
+
     apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
     # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
     style_scale: float = 0.95  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
@@ -34,15 +56,106 @@ class StyleConfig:
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
     # of multiplying its final difference
     delta_smoothing: float = 0.0  # difference mode: Gaussian sigma (frames) of a temporal low-pass on the difference
-    lambda_stat: float = 0.0  # word-free: the style's change on content shifts feature statistics as the example
-    # differs from its pair (transfer.style_losses.statistics_loss)
-    stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
-    stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
-    # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
     decode: str = "guarded"  # apply: the result's rotations from its rotation channels ("rotations"), fitted to its
     # joint-position channels ("positions": a style's difference is linear there; in 6D rotations a large one swings
     # a limb), or "guarded": rotations except for a limb whose two channel sets disagree (motioncore.ik_fit)
-    lambda_dir: float = 1.0  # word-free: the change in the motion encoder's space points as example - pair does
     limb_guard: float = 0.08  # apply: metres; a hand or foot whose time-mean place (hips' facing frame) lies further than
     # this off the segment from the content's place to the example's is drawn back by IK, softly, never left past 1.5x
     # (motioncore.limbs.guard_limbs); 0: off (the ablation)
+
+
+# config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
+# before the config was split in two, so files written since keep the same JSON)
+CONFIG_RANGES = {
+    "pair_step": (int, 1, 999), "pair_steps": (int, 1, 100), "guidance": (float, 0.0, 20.0),
+    "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 50), "rank": (int, 1, MAX_RANK),
+    "lr": (float, 0.0, 1.0), "iterations": (int, 1, MAX_ITERATIONS), "max_seconds": (float, 0.0, 7 * 86400.0),
+    "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 64), "window": (int, 8, 400), "rec_windows": (int, 1, 16),
+    "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
+    "apply_mode": (str, ("regenerate", "difference"), None), "style_scale": (float, 0.0, 20.0),
+    "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
+    "lambda_stat": (float, 0.0, 100.0), "stat_std": (bool, None, None), "stat_reference": (str, ("pair", "neutral"), None),
+    "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
+    "limb_guard": (float, 0.0, 1.0),
+}
+LEARN_FIELDS = tuple(f.name for f in fields(LearnConfig))
+APPLY_FIELDS = tuple(f.name for f in fields(ApplyConfig))
+
+
+def config_dict(learn: LearnConfig, apply: ApplyConfig) -> dict:
+    """A style file's ``config`` object: both configs' fields, in :data:`CONFIG_RANGES`'s order."""
+    values = {**asdict(learn), **asdict(apply)}
+    return {name: values[name] for name in CONFIG_RANGES}
+
+
+def split_config(config: dict) -> tuple[LearnConfig, ApplyConfig]:
+    """A ``config`` object (a style file's, or overrides of the defaults) -> ``(LearnConfig, ApplyConfig)``; fields it
+    lacks take today's defaults. An unknown field raises TypeError, as a dataclass does."""
+    unknown = [k for k in config if k not in LEARN_FIELDS and k not in APPLY_FIELDS]
+    if unknown:
+        raise TypeError(f"unknown config field(s) {', '.join(map(str, unknown))}")
+    return (LearnConfig(**{k: v for k, v in config.items() if k in LEARN_FIELDS}),
+            ApplyConfig(**{k: v for k, v in config.items() if k in APPLY_FIELDS}))
+
+
+def check_value(name: str, value, kind, low, high) -> None:
+    """``value`` of type ``kind`` within ``[low, high]`` (a str: one of ``low``); ValueError naming ``name``."""
+    if value is None and name.endswith("max_seconds"):  # no time cap
+        return
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{name}: expected true or false, got {type(value).__name__}")
+        return
+    if kind is str:
+        if value not in low:
+            raise ValueError(f"{name}: expected one of {', '.join(low)}, got {str(value)[:40]!r}")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind is int and not isinstance(value, int)):
+        raise ValueError(f"{name}: expected {'an integer' if kind is int else 'a number'}, got {type(value).__name__}")
+    if not math.isfinite(value) or not low <= value <= high:
+        raise ValueError(f"{name}: expected a number from {low} to {high}, got {value}")
+
+
+def check_config_value(name: str, value) -> None:
+    """``value`` for the config field ``name`` within the range a style file is held to; ValueError
+    (``expected ..., got ...``, without the field's name) otherwise. The CLI checks its options with it."""
+    kind, low, high = CONFIG_RANGES[name]
+    try:
+        check_value(name, value, kind, low, high)
+    except ValueError as e:
+        raise ValueError(str(e).removeprefix(f"{name}: ")) from None
+
+
+MAX_STEP = 999
+
+
+def check_strength(strength: float) -> None:
+    """``--strength`` from 0 (the content unchanged) to 1: ValueError ``strength: expected ...`` otherwise."""
+    if not 0 <= strength <= 1:
+        raise ValueError(f"strength: expected a number from 0 to 1, got {strength:g}")
+
+
+def strength_to_step(strength: float) -> int:
+    """The regenerate mode's noise step K for ``--strength`` in (0, 1] (0.5 -> K = 300, the paper's)."""
+    check_strength(strength)
+    if strength == 0:
+        raise ValueError("strength: the regenerate mode redraws the content from a noise step; expected a number "
+                         "above 0, got 0")
+    return max(1, min(MAX_STEP, round(600 * strength)))
+
+
+def strength_settings(strength: float | None, learn: LearnConfig, apply: ApplyConfig) -> tuple[int, ApplyConfig]:
+    """``--strength`` -> ``(K, apply config)`` for ``transfer.edit.stylize`` under the style's ``apply_mode``; the
+    one place a strength becomes settings. None: the style as learned (its K and scale).
+
+    regenerate: K = 600 * strength (0.5 -> 300, the paper's), the scale from the style's config;
+    difference: K from the style's config, scale = 2 * strength * ``style_scale`` (0 -> the content unchanged,
+    0.5 -> the learned difference, 1 -> twice it).
+    """
+    if strength is None:
+        return learn.transfer_step, apply
+    if apply.apply_mode == "difference":
+        check_strength(strength)
+        return learn.transfer_step, replace(apply, style_scale=2.0 * strength * apply.style_scale)
+    return strength_to_step(strength), apply
+

@@ -1,5 +1,5 @@
 """Style signals that need no style words: what the example changes against its neutral pair, asked of the
-content batch while a style learns (see :func:`transfer.style.learn_style`).
+content batch while a style learns (see :func:`transfer.learn.learn_style`).
 
 - :func:`statistics_loss`: the change the style model makes to a content clip (its x0 prediction against the
   frozen prior's, from the same noisy input) must shift the per-channel time means (and log standard

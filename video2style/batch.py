@@ -215,7 +215,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: floa
 def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, device: str = "cpu",
                rotate: int | None = None):
     """The video's style: loaded from the output folder if it is there and valid, else learned."""
-    from transfer.style import Style
+    from transfer.style_file import Style
     from video2style.pipeline import learn_file
 
     if style_path.is_file():
@@ -235,7 +235,7 @@ def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, 
 def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
                learn_config, seed: int, progress, report: BatchReport, device: str = "cpu",
                rotate: int | None = None) -> None:
-    from transfer.style import style_model
+    from transfer.style_file import style_model
     from video2style.pipeline import load_models
 
     t0 = time.time()

@@ -82,7 +82,7 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
-    from transfer.style import Style, style_model
+    from transfer.style_file import Style, style_model
     from video2style.pipeline import load_models
 
     torch.set_num_threads(threads)

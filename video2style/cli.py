@@ -97,12 +97,12 @@ def _finite_positive(v: str) -> float:
 
 
 def _style_option(name: str):
-    """An argparse ``type`` for the StyleConfig field ``name``: the range a style file is held to
-    (:func:`transfer.style_schema.check_config_value`), checked while parsing, so learn never writes a file
-    apply refuses. (The schema, and torch with it, is imported only when the option is given.)"""
+    """An argparse ``type`` for the style config field ``name``: the range a style file is held to
+    (:func:`transfer.style_config.check_config_value`), checked while parsing, so learn never writes a file
+    apply refuses."""
 
     def parse(v: str):
-        from transfer.style_schema import CONFIG_RANGES, check_config_value
+        from transfer.style_config import CONFIG_RANGES, check_config_value
 
         kind, low, high = CONFIG_RANGES[name]
         try:
@@ -137,7 +137,7 @@ def _checked(convert, check):
 
 def _style_text(v: str) -> str:
     """``learn --style/--text``: no longer than a style file's string fields may be."""
-    from transfer.style_schema import check_text
+    from transfer.style_file import check_text
 
     try:
         check_text(v)
@@ -305,11 +305,11 @@ def cmd_learn(args) -> None:
     from dataclasses import replace
 
     from motioncore.retarget import load_joint_map
-    from transfer.style import StyleConfig
+    from transfer.style_config import ApplyConfig, LearnConfig
     from video2style.interchange import as_bvh
     from video2style.pipeline import learn_file
 
-    config = StyleConfig()
+    config, apply_config = LearnConfig(), ApplyConfig()
     if args.max_seconds is not None:
         config = replace(config, max_seconds=args.max_seconds)
     if args.iterations is not None:
@@ -317,14 +317,15 @@ def cmd_learn(args) -> None:
     if args.seed is not None:
         config = replace(config, seed=args.seed)
     if args.limb_guard is not None:
-        config = replace(config, limb_guard=args.limb_guard)
+        apply_config = replace(apply_config, limb_guard=args.limb_guard)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
     joint_map = load_joint_map(args.joint_map) if args.joint_map else None
     args.input = as_bvh(args, args.input)  # an FBX/glTF clip: its action as BVH
     summary = learn_file(args.input, out, args.style, args.text, config, joint_map, allow_partial=args.allow_partial,
-                         span=(args.start, args.end), show_bar=True, device=args.device, rotate=args.rotate)
+                         span=(args.start, args.end), show_bar=True, device=args.device, rotate=args.rotate,
+                         apply_config=apply_config)
     if summary["partial"]:
         print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
     print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
@@ -414,7 +415,7 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
 
 
 def _diffusion_runner(args, joint_map):
-    from transfer.style import Style, style_model
+    from transfer.style_file import Style, style_model
     from video2style.pipeline import (
         apply_file,
         base_model_warning,
@@ -441,8 +442,12 @@ def _diffusion_runner(args, joint_map):
 
 
 def _check_strength(strength: float) -> None:
-    if not 0 <= strength <= 1:
-        raise CliError(f"--strength: expected a number from 0 to 1, got {strength:g}")
+    from transfer.style_config import check_strength
+
+    try:
+        check_strength(strength)
+    except ValueError as e:
+        raise CliError(f"--{e}") from None
 
 
 def _park_runner(args, joint_map):
@@ -650,7 +655,7 @@ def _device_error(args) -> str | None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from transfer.style_config import MIN_ITERATIONS, StyleConfig
+    from transfer.style_config import MIN_ITERATIONS, ApplyConfig, LearnConfig
     from video2style.methods import ALIASES, METHODS
     from video2style.paths import cache_dir, default_dataset_dir
 
@@ -723,15 +728,15 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--text", type=_style_text, help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
     lr.add_argument("--iterations", type=_style_option("iterations"),
-                    help=f"fine-tuning iterations: the budget, the same on any machine (default: {StyleConfig.iterations})")
+                    help=f"fine-tuning iterations: the budget, the same on any machine (default: {LearnConfig.iterations})")
     lr.add_argument("--max-seconds", type=_style_option("max_seconds"),
                     help="optional wall-clock cap on learning; if it cuts learning short, learn fails unless --allow-partial")
     lr.add_argument("--allow-partial", action="store_true",
                     help=f"keep a style cut short by --max-seconds or learned in fewer than {MIN_ITERATIONS} iterations")
-    lr.add_argument("--seed", type=_style_option("seed"), help=f"random seed (default: {StyleConfig.seed})")
+    lr.add_argument("--seed", type=_style_option("seed"), help=f"random seed (default: {LearnConfig.seed})")
     lr.add_argument("--limb-guard", type=_style_option("limb_guard"), metavar="METRES",
                     help="at apply, a hand or foot whose mean place strays further than this from anywhere between the "
-                         f"content's and the example's is drawn back (default: {StyleConfig.limb_guard}; 0: off)")
+                         f"content's and the example's is drawn back (default: {ApplyConfig.limb_guard}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")

@@ -14,7 +14,7 @@ Methods (names as on the command line):
 Older names (:data:`video2style.methods.ALIASES`: ``stgcn``, variants that now equal another) run, and name
 their rows, as the methods they stand for.
 
-Learning has a fixed budget of iterations per example (:class:`transfer.style.StyleConfig`), so
+Learning has a fixed budget of iterations per example (:class:`transfer.style_config.LearnConfig`), so
 style examples are drawn from a pool of clips per style (``examples_pool``: 1 quick, 3 full): 7 or
 21 learned styles per learning setting. Each content clip is neutralised once and reused.
 
@@ -38,8 +38,6 @@ from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
 from video2style.methods import METHODS, VARIANTS, method_names
 
-APPLY_FIELDS = ("apply_mode", "style_scale", "neutralize_step", "guided_difference", "delta_smoothing",
-                "decode", "limb_guard")  # not used in learning
 HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
@@ -67,13 +65,19 @@ def _key(*parts) -> str:
 class OnTheFly:
     """Our method as a protocol method: learns (once) a style per style example, then applies it.
 
-    ``shared``: a dict shared between instances, so variants that learn the same way (they differ only
-    in :data:`APPLY_FIELDS` or strength) reuse each other's styles and neutralised contents.
+    ``learned``: how it learns (:class:`transfer.style_config.LearnConfig`); ``config``: how it applies
+    (:class:`transfer.style_config.ApplyConfig`, default: today's). ``shared``: a dict shared between instances, so
+    variants that learn the same way (they differ only in ``config`` or strength) reuse each other's styles and
+    neutralised contents.
     """
 
-    def __init__(self, models, content_data, config, seed: int = 0, progress=None, strength: float | None = None,
-                 shared: dict | None = None, store: Path | None = None, words: str | None = None):
-        self.m, self.data, self.config, self.seed, self.strength = models, content_data, config, seed, strength
+    def __init__(self, models, content_data, learned, config=None, seed: int = 0, progress=None,
+                 strength: float | None = None, shared: dict | None = None, store: Path | None = None,
+                 words: str | None = None):
+        from transfer.style_config import ApplyConfig
+
+        self.m, self.data, self.learned, self.seed, self.strength = models, content_data, learned, seed, strength
+        self.config = config or ApplyConfig()
         self.words = words  # the style words learning is given (None: the style's name)
         self.store = store  # a folder keeping learned styles between runs (keyed by example and learning config)
         self.shared = shared if shared is not None else {}
@@ -84,9 +88,10 @@ class OnTheFly:
 
     def _model(self, style: torch.Tensor, style_label: str):
         from transfer.apply import read_motion
-        from transfer.style import Style, learn_style, style_model
+        from transfer.learn import learn_style
+        from transfer.style_file import Style, style_model
 
-        learn_config = {k: v for k, v in asdict(self.config).items() if k not in APPLY_FIELDS + ("max_seconds",)}
+        learn_config = {k: v for k, v in asdict(self.learned).items() if k != "max_seconds"}
         words = self.words or style_label
         key = "style" + _key(style, words, learn_config, str(getattr(self.m, "prior_path", "")))
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
@@ -97,7 +102,7 @@ class OnTheFly:
             t0 = time.time()
             content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
             learned, _ = learn_style(self.m.prior, self.m.motion_encoder, self.m.text_encoder, self.data, style,
-                                     words, content, self.config)
+                                     words, content, self.learned, apply=self.config)
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
@@ -113,23 +118,23 @@ class OnTheFly:
     def _neutral(self, content: torch.Tensor) -> torch.Tensor:
         from transfer.apply import neutral_caption, neutralize_features
 
-        pair_config = {k: getattr(self.config, k) for k in ("neutralize_step", "pair_step", "pair_steps", "guidance")}
+        pair_config = {"neutralize_step": self.config.neutralize_step,
+                       **{k: getattr(self.learned, k) for k in ("pair_step", "pair_steps", "guidance")}}
         key = "neutral" + _key(content, pair_config, self.seed)
         if key not in self.shared:  # each content clip goes to six styles: neutralise it once
             _, text = neutral_caption(self.m.motion_encoder, self.m.text_encoder, content)
             skip = text is None or self.config.neutralize_step == 0
-            self.shared[key] = content if skip else neutralize_features(self.m.prior, content, text, self.config, self.seed)
+            self.shared[key] = content if skip else neutralize_features(self.m.prior, content, text, self.learned, self.config,
+                                                                                  self.seed)
         return self.shared[key]
 
     def __call__(self, content, style, style_label, content_label):
-        from transfer.apply import apply_style_features, strength_settings
+        from transfer.apply import apply_style_features
+        from transfer.style_config import strength_settings
 
         model = self._model(style, style_label)
-        config, step = self.config, self.config.transfer_step
-        if self.strength is not None:
-            step, scale = strength_settings(self.strength, self.config)
-            config = replace(config, style_scale=scale)
-        return apply_style_features(model, self.m.prior, self._neutral(content), config, step, self.seed)
+        step, config = strength_settings(self.strength, self.learned, self.config)
+        return apply_style_features(model, self.m.prior, self._neutral(content), self.learned, config, step, self.seed)
 
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, park_weights: Path | None = None,
@@ -144,7 +149,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
     every style is learned under (default: its name)."""
     from evaluation.protocol import identity_transfer
     from transfer.dataset import MotionDataset
-    from transfer.style import StyleConfig
+    from transfer.style_config import split_config
 
     names = method_names(names)
     unknown = [n for n in names if n not in METHODS]
@@ -175,12 +180,12 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
             m = load_models() if models_dir is None else load_models_from(Path(models_dir) / PRIOR_FILE,
                                                                           Path(models_dir) / ENCODER_FILE)
             train = train or MotionDataset(data_dir, "train", exclude_styles=exclude_styles)
-            config = replace(StyleConfig(), seed=seed, **VARIANTS[name])
+            learned, config = split_config({"seed": seed, **VARIANTS[name]})
             if iterations is not None:
-                config = replace(config, iterations=iterations)
+                learned = replace(learned, iterations=iterations)
             for strength in strengths or [None]:
                 row = name if strength is None else f"{name} @{strength:g}"
-                learner = OnTheFly(m, train, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
+                learner = OnTheFly(m, train, learned, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
                                    strength=strength, shared=shared, store=style_cache, words=words)
                 learners[row] = learner
                 methods[row] = cleaned(learner, test.mean, test.std,
@@ -216,7 +221,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
         run_protocol,
     )
     from transfer.captions import NEUTRAL_STYLE, STYLES
-    from transfer.style import StyleConfig
+    from transfer.style_config import LearnConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():
         raise FileNotFoundError(f"{data_dir}: no dataset cache (build it with video2style dataset)")
@@ -270,7 +275,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     elif words:
         kind += f" (styles learned as {words!r})"
     header = (f"protocol: {kind} on the {split} split, seed {seed}, style examples from "
-              f"{examples_pool or 'all'} clip(s) per style, {iterations or StyleConfig.iterations} learning iterations "
+              f"{examples_pool or 'all'} clip(s) per style, {iterations or LearnConfig.iterations} learning iterations "
               f"per example; {time.time() - t0:.0f} s in all")
     atomic_write_text(out_dir / "table.md", "\n".join([header, "", table, "", *learned]) + "\n")
     atomic_write_text(out_dir / "rows.json", json.dumps(rows, indent=1))

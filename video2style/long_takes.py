@@ -9,7 +9,7 @@ Two things are the whole take's and gathered by a first pass over it: the floor 
 shift) and each foot joint's lowest height (the contact channels). Decoding, foot cleanup and the write-back
 see :data:`MARGIN` frames either side of each span; the result equals the whole-clip path's (the tests: within
 0.05 cm) except where a foot contact lasts longer than the margin across a span's end, and except for the
-stray-limb guard (``StyleConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`), which needs the whole
+stray-limb guard (``ApplyConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`), which needs the whole
 result's time-mean limb places and is not applied to a take streamed a span at a time.
 """
 from __future__ import annotations
@@ -155,19 +155,13 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     time (default :data:`SPAN_FRAMES`, :data:`MARGIN` either side; see the module's docstring); writes ``out_dir/<name>.bvh`` and, with ``preview``, the preview and player
     of its first :data:`video2style.preview.MAX_PREVIEW_SECONDS`. Returns what apply_file returns (``skating_*``
     pooled over the spans, each span measured on its own) and ``streamed``, the number of spans."""
-    from dataclasses import replace
-
     import transfer.apply as apply_mod
     from transfer.device import model_device
+    from transfer.edit import neutralize as neutralize_windows
+    from transfer.edit import stylize
     from transfer.scheduler import DiffusionScheduler
-    from transfer.style import neutralize as neutralize_windows
-    from transfer.style import stylize
-    from video2style.pipeline import (
-        MAX_CLIP_SECONDS,
-        load_models,
-        skating,
-        style_config,
-    )
+    from transfer.style_config import strength_settings
+    from video2style.pipeline import MAX_CLIP_SECONDS, load_models, skating
 
     t0 = time.time()
     span = SPAN_FRAMES if span is None else span  # the module's, read at the call (tests make them small)
@@ -197,9 +191,8 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     del lowest
 
     m = load_models(model_device(model))
-    config = style_config(style)
-    step, scale = apply_mod.strength_settings(strength, config)
-    config = replace(config, style_scale=scale)
+    learned, config = style.configs()
+    step, config = strength_settings(strength, learned, config)
     head = take.canonical(0, min(n, 200))
     neutral_text, detected = None, None
     if neutralize != "never":  # the reading is of the first 8 s (read_motion)
@@ -218,9 +211,9 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
         gen_n = torch.Generator().manual_seed(seed + 1)
         text = neutral_text.to(device)
         streams.append(WindowStream(lambda p, i: neutralize_windows(
-            m.prior, scheduler, p, text.expand(p.shape[0], -1), config, gen_n, config.neutralize_step), n, batch))
+            m.prior, scheduler, p, text.expand(p.shape[0], -1), learned, gen_n, config.neutralize_step), n, batch))
     gen = torch.Generator().manual_seed(seed)
-    streams.append(WindowStream(lambda p, i: stylize(model, scheduler, p, config, gen, step=step, prior=m.prior), n, batch))
+    streams.append(WindowStream(lambda p, i: stylize(model, scheduler, p, learned, config, gen, step=step, prior=m.prior), n, batch))
     rvel = FEATURES.root_rvel
 
     content = _Buffer()  # canonical content frames, from content.start on

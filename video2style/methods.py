@@ -1,6 +1,6 @@
 """The methods `evaluate` compares, by name: Park et al.'s stylizer, the identity baseline, and ours with
-:class:`transfer.style_config.StyleConfig` overrides (experimental variants cited by docs/RESULTS.md; no two
-of them learn and apply alike). Plain data, so the command line can list them without importing torch."""
+overrides of the style's configs (:func:`transfer.style_config.split_config`; experimental variants cited by
+docs/RESULTS.md; no two of them learn and apply alike). Plain data, so the command line can list them without importing torch."""
 
 VARIANTS = {
     "ours": {},

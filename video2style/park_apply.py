@@ -59,7 +59,7 @@ class ParkRequest:
             if self.reference is not None:
                 raise ValueError("--mix: interpolates noise codes; it cannot be combined with --reference")
             if self.mix not in domains:  # a seed, in the range --seed takes
-                from transfer.style_schema import check_config_value
+                from transfer.style_config import check_config_value
 
                 try:
                     check_config_value("seed", int(self.mix))

@@ -217,22 +217,25 @@ class PartialStyleError(ValueError):
 def learn_file(path: Path, out_path: Path, style_words: str | None = None, text: str | None = None,
                config=None, joint_map: dict | None = None, progress=print, *, allow_partial: bool = False,
                span: tuple[float | None, float | None] = (None, None), show_bar: bool = False,
-               device: str = "cpu", rotate: int | None = None) -> dict:
+               device: str = "cpu", rotate: int | None = None, apply_config=None) -> dict:
     """Learn a style from a video or BVH on ``device`` (:func:`load_models`) and save it to ``out_path``;
     returns a summary. The noise is drawn on the CPU whatever the device, so a GPU's style differs from the
     CPU's only by the GPU's arithmetic (and its dropout draws).
 
+    ``config``: the :class:`transfer.style_config.LearnConfig` (default: today's); ``apply_config``: the apply
+    settings the style file records (:class:`transfer.style_config.ApplyConfig`, default: today's).
     If learning is cut short by ``config.max_seconds`` or runs fewer than
-    :data:`transfer.style.MIN_ITERATIONS` iterations, raises :class:`PartialStyleError` and writes
+    :data:`transfer.style_config.MIN_ITERATIONS` iterations, raises :class:`PartialStyleError` and writes
     nothing, unless ``allow_partial`` (then the summary's ``partial`` holds the reason).
     ``span``: ``(start, end)`` seconds of the input to learn from; ``rotate``: a video's frames turned
     this many degrees clockwise (:func:`read_clip`).
     """
     from transfer.apply import read_motion
-    from transfer.style import StyleConfig, learn_style, partial_reason
+    from transfer.learn import learn_style, partial_reason
+    from transfer.style_config import LearnConfig
 
     t0 = time.time()
-    config = config or StyleConfig()
+    config = config or LearnConfig()
     style_words = style_words or Path(path).stem.replace("_", " ").replace("-", " ")
     progress(f"[1/4] reading {path}")
     if Path(path).suffix.lower() in VIDEO_SUFFIXES:
@@ -259,7 +262,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     dataset = content_source(progress)
     progress("[3/4] learning")
     style, _ = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
-                           m.prior_path, progress=lambda s: progress(f"      {s}"), show_bar=show_bar)
+                           m.prior_path, progress=lambda s: progress(f"      {s}"), show_bar=show_bar,
+                           apply=apply_config)
     tempo = style_tempo(canonical, text, dataset, m.mean, m.std)
     if tempo is not None:
         progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
@@ -351,26 +355,24 @@ def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: i
     """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; stray limbs drawn back
     (``limb_guard`` of the style's config, :func:`transfer.apply.guard_stray_limbs`); feet cleaned against the content.
 
-    ``strength``: see :func:`transfer.apply.strength_settings` (0.5: the style as learned). ``neutralize``: auto
+    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``: auto
     (only when the motion encoder reads a styled clip confidently), always or never.
     Returns the result and what was decided (``detected``, ``neutralized``) with the foot-skating ratios
     before and after cleanup and of the content itself. Runs on ``model``'s device (the prior is loaded there too); the result is on the CPU.
     """
-    from dataclasses import replace
-
-    from transfer.apply import apply_style_motion, neutral_caption, strength_settings
+    from transfer.apply import apply_style_motion, neutral_caption
     from transfer.device import model_device
+    from transfer.style_config import strength_settings
 
     m = load_models(model_device(model))
-    config = style_config(style)
-    step, scale = strength_settings(strength, config)
-    config = replace(config, style_scale=scale)
+    learned, config = style.configs()
+    step, config = strength_settings(strength, learned, config)
     neutral_text, detected = None, None
     if neutralize != "never":
         reading, neutral_text = neutral_caption(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std,
                                                 neutralize)
         detected = reading.describe()
-    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, config, step, seed, neutral_text, clean=False,
+    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, learned, config, step, seed, neutral_text, clean=False,
                              example=style.example)  # stray limbs drawn back (config.limb_guard), before the feet
     result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
     return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
@@ -405,7 +407,7 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
 
 @lru_cache(maxsize=4)
 def _sha256(path: Path) -> str:
-    from transfer.style import file_sha256
+    from transfer.style_file import file_sha256
 
     return file_sha256(path)
 
@@ -420,14 +422,6 @@ def base_model_warning(style, source: Path) -> str | None:
         return None
     return (f"warning: {source}: learned on another prior (sha256 {learned_on[:12]}…, installed "
             f"{installed[:12]}…); results may differ from where it was made")
-
-
-def style_config(style):
-    """The :class:`transfer.style.StyleConfig` a style was learned with (fields it lacks: today's defaults).
-    A loaded file's config was validated by :meth:`transfer.style.Style.load`."""
-    from transfer.style import StyleConfig
-
-    return StyleConfig(**style.meta.get("config", {}))
 
 
 def skating(motion: Motion) -> float:

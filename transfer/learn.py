@@ -1,181 +1,39 @@
-"""On-the-fly style learning after Hu et al. 2024 §3.2-3.5.
+"""Learning a style on the fly, after Hu et al. 2024 §3.2-3.5.
 
-1. ``neutralize``: noise the style example to step G and denoise it with the prior conditioned
-   on the neutral caption, inpainting the example's root trajectory at every step (eq. 3-5).
-2. ``learn_style``: a copy of the prior with LoRA adapters learns to turn the neutral pair,
-   noised K steps, into the example (L_rec, eq. 10), while content clips from the dataset,
-   passed through the style model, must match their captions with the style words added in the
-   motion encoder's text space (L_s, eq. 11). Only the adapters train.
-3. The result is a :class:`Style`: adapter tensors in safetensors plus JSON metadata.
+1. The neutral pair: the style example noised to step G and denoised by the prior under the neutral caption,
+   its root trajectory inpainted at every step (eq. 3-5; :func:`transfer.edit.neutralize`).
+2. :func:`learn_style`: a copy of the prior with LoRA adapters learns to turn the neutral pair, noised K steps,
+   into the example (L_rec, eq. 10, :func:`reconstruction_loss`), while content clips from the dataset, passed
+   through the style model, change in the motion encoder's space as the example differs from its pair and stay
+   near the prior's (the word-free signals, :mod:`transfer.style_losses`). Only the adapters train.
+3. The result is a :class:`transfer.style_file.Style`: adapter tensors plus JSON metadata.
 """
 from __future__ import annotations
 
 import copy
-import hashlib
 import itertools
-import json
-import math
 import time
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import torch
-from safetensors import safe_open
-from safetensors.torch import load_file, save
 from torch.profiler import record_function
 from tqdm import tqdm
 
 from motioncore.representation import FEATURES
 from transfer.captions import caption
 from transfer.device import model_device
-from transfer.lora import add_lora, load_lora_state, lora_state, set_gain
-from transfer.sampling import denoise, denoising_steps, noise_keeping, overwrite
+from transfer.edit import TRAJECTORY, neutralize
+from transfer.lora import add_lora, lora_state
+from transfer.sampling import denoising_steps, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
-from transfer.style_config import MIN_ITERATIONS, StyleConfig
+from transfer.style_config import MIN_ITERATIONS, ApplyConfig, LearnConfig, config_dict
+from transfer.style_file import Style, file_sha256
 from transfer.style_losses import (
     directional_loss,
     neutral_shift,
     statistics_loss,
     style_shift,
 )
-
-TRAJECTORY = [FEATURES.root_rvel, FEATURES.root_lvel]  # inpainted: the root's path on the ground
-
-
-@dataclass
-class Style:
-    """A learned style: adapter tensors and what is needed to apply them."""
-
-    adapters: dict[str, torch.Tensor]
-    meta: dict = field(default_factory=dict)
-    example: torch.Tensor | None = None  # the style example, canonical features (T, D), for previews
-    source: Path | None = None  # the file it was loaded from: errors about its contents name it
-
-    def save(self, path: Path) -> None:
-        """Write atomically under a temporary name of its own (two writers never share one). A full or
-        read-only disk raises OSError naming ``path`` (the serialised bytes are written by Python, not by
-        safetensors, whose own error is a traceback-only SafetensorError)."""
-        from motioncore.files import atomic_output
-
-        tensors = {k: v.to("cpu", torch.float16).contiguous() for k, v in self.adapters.items()}
-        if self.example is not None:
-            tensors["example"] = self.example.to("cpu", torch.float32).contiguous()
-        data = save(tensors, metadata={"video2style": json.dumps(self.meta)})
-        try:
-            with atomic_output(path, ".tmp") as tmp:
-                tmp.write_bytes(data)
-        except OSError as e:
-            raise OSError(e.errno, e.strerror or str(e), str(path)) from None
-
-    @staticmethod
-    def load(path: Path) -> Style:
-        """Read and validate a style file (:mod:`transfer.style_schema`): it is untrusted input."""
-        from transfer.style_schema import (
-            MAX_METADATA,
-            MAX_TENSOR_VALUES,
-            validate_style,
-        )
-
-        path = Path(path)
-        try:
-            with safe_open(str(path), framework="pt") as f:
-                raw = (f.metadata() or {}).get("video2style")
-                sizes = [math.prod(f.get_slice(k).get_shape()) for k in f.keys()]  # noqa: SIM118 - not a dict
-            if raw is None or len(raw) > MAX_METADATA:
-                raise ValueError("no video2style metadata" if raw is None else "metadata too large")
-            if sum(sizes) > MAX_TENSOR_VALUES:
-                raise ValueError(f"tensors too large ({sum(sizes)} values)")
-            meta = json.loads(raw)
-            tensors = load_file(str(path))
-        except FileNotFoundError:
-            raise FileNotFoundError(f"{path}: no such style file") from None
-        except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage (RecursionError included)
-            raise ValueError(f"{path}: not a video2style style file ({' '.join(str(e).split())[:200]})") from None
-        try:
-            validate_style(meta, tensors)
-        except ValueError as e:
-            raise ValueError(f"{path}: invalid style file: {' '.join(str(e).split())}") from None  # one line, always
-        example = tensors.pop("example", None)
-        return Style({k: v.float() for k, v in tensors.items()}, meta, None if example is None else example.float(), path)
-
-
-def file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torch.Tensor, config: StyleConfig,
-               generator: torch.Generator, step: int | None = None) -> torch.Tensor:
-    """Neutral version ``(B, T, D)`` of normalised motions ``x (B, T, D)``, same path, text ``(B, E)``;
-    noised to ``step`` (default G, ``config.pair_step``) and denoised with the text. ``x`` and ``text`` are on
-    the prior's device; the noise is drawn on the CPU from ``generator`` and moved there."""
-    g = config.pair_step if step is None else step
-    n_steps = max(1, round(config.pair_steps * g / config.pair_step))
-    noise = torch.randn(x.shape, generator=generator).to(x.device)
-    x_g = noise_keeping(scheduler, x, noise, g, TRAJECTORY)
-    return denoise(prior, scheduler, x_g, g, n_steps, text, guidance=config.guidance,
-                   inpaint=(x, TRAJECTORY), generator=generator)
-
-
-class StyleGuided(torch.nn.Module):
-    """``x0 = prior + w * (style - prior)``: style guidance at sampling (``w = 1``: the style model alone)."""
-
-    def __init__(self, prior, style, weight: float):
-        super().__init__()
-        self.prior, self.style, self.weight = prior, style, weight
-        self.config = style.config
-
-    def forward(self, x_t, t, text=None, valid=None):
-        x0_style = self.style(x_t, t, text, valid)
-        if self.weight == 1.0:
-            return x0_style
-        x0_prior = self.prior(x_t, t, text, valid)
-        return x0_prior + self.weight * (x0_style - x0_prior)
-
-
-def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, config: StyleConfig, generator: torch.Generator,
-            step: int | None = None, prior=None) -> torch.Tensor:
-    """Apply the style model to normalised content ``x (B, T, D)``: noise it K steps, denoise keeping its path.
-
-    ``config.apply_mode`` "difference" (needs ``prior``): ``x + scale * (style(y) - prior(y))`` from the same
-    noisy ``y``; "regenerate": the style model's own result, guided with weight ``scale`` when a prior is given.
-    ``scale`` is ``config.style_scale`` (see :func:`transfer.apply.strength_settings`). ``x`` is on the models'
-    device; the noise is drawn on the CPU from ``generator`` and moved there.
-    """
-    k = config.transfer_step if step is None else step
-    scale = config.style_scale
-    noise = torch.randn(x.shape, generator=generator).to(x.device)
-    y = noise_keeping(scheduler, x, noise, k, TRAJECTORY)
-    n_steps = max(1, round(config.transfer_steps * k / config.transfer_step))
-    if config.apply_mode == "difference":
-        if prior is None:
-            raise ValueError("stylize: the difference mode needs the prior")
-        if config.guided_difference:
-            styled = denoise(StyleGuided(prior, model, scale), scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
-            scale = 1.0
-        else:
-            styled = denoise(model, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
-        base = denoise(prior, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
-        return x + scale * smooth_time(styled - base, config.delta_smoothing)
-    if config.apply_mode != "regenerate":
-        raise ValueError(f"stylize: expected apply_mode 'regenerate' or 'difference', got {config.apply_mode!r}")
-    if prior is not None and scale != 1.0:
-        model = StyleGuided(prior, model, scale)
-    return denoise(model, scheduler, y, k, n_steps, None, inpaint=(x, TRAJECTORY))
-
-
-def smooth_time(x: torch.Tensor, sigma: float) -> torch.Tensor:
-    """Gaussian low-pass of ``x (B, T, D)`` along T with ``sigma`` frames (edges replicated); 0 = unchanged."""
-    if sigma <= 0:
-        return x
-    radius = max(1, int(3 * sigma))
-    k = torch.exp(-0.5 * (torch.arange(-radius, radius + 1, dtype=x.dtype, device=x.device) / sigma) ** 2)
-    k = (k / k.sum()).expand(x.shape[-1], 1, -1)
-    padded = torch.nn.functional.pad(x.transpose(1, 2), (radius, radius), mode="replicate")
-    return torch.nn.functional.conv1d(padded, k, groups=x.shape[-1]).transpose(1, 2)
 
 
 def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
@@ -186,14 +44,15 @@ def _random_window_starts(n: int, window: int, count: int, generator: torch.Gene
 
 
 def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Tensor, style_words: str, content: str,
-                config: StyleConfig, prior_path: Path | None = None, progress=None,
-                show_bar: bool = False) -> tuple[Style, dict]:
+                config: LearnConfig, prior_path: Path | None = None, progress=None,
+                show_bar: bool = False, apply: ApplyConfig | None = None) -> tuple[Style, dict]:
     """Learn a style from one normalised example ``(T, D)`` whose content is ``content`` (a Bandai content name
     or free text). ``dataset``: the prior's training cache (content motions for L_s). Returns the style and stats.
 
     The budget is ``config.iterations``; with the same seed the adapters are the same on any machine, however
     busy. ``config.max_seconds`` (optional) caps the wall time; when it cuts learning short, ``meta["stopped_by"]``
-    is ``"time"`` (see :func:`partial_reason`). ``show_bar``: a tqdm bar of iterations with an ETA.
+    is ``"time"`` (see :func:`partial_reason`). ``show_bar``: a tqdm bar of iterations with an ETA. ``apply``: the
+    apply settings the style file records beside ``config`` (default: today's, :class:`ApplyConfig`).
 
     Learning runs on the prior's device (the motion encoder must be on it too); random numbers come from a
     seeded CPU generator, so the noise is the same on any device. The style's tensors are on the CPU.
@@ -293,7 +152,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
     meta = {
         "style": style_words,
         "content": neutral_text,
-        "config": asdict(config),
+        "config": config_dict(config, apply or ApplyConfig()),
         "iterations": it,
         "iterations_planned": config.iterations,
         "stopped_by": stopped_by,
@@ -319,7 +178,7 @@ def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | No
     return None
 
 
-def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor, m_s: torch.Tensor, config: StyleConfig,
+def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor, m_s: torch.Tensor, config: LearnConfig,
                         generator: torch.Generator) -> torch.Tensor:
     """L_rec (Hu et al. eq. 10): the neutral windows ``m_n (B, L, D)`` noised K steps must denoise to the example
     windows ``m_s (B, L, D)`` at every DDIM step from K to 0. Both on the model's device, with the same root path
@@ -358,18 +217,3 @@ def _crop_mask(length: int, window: int) -> torch.Tensor:
     valid = torch.zeros(window, dtype=torch.bool)
     valid[: min(length, window)] = True
     return valid
-
-
-def style_model(prior, style: Style, gain: float = 1.0):
-    """A copy of the prior with the style's adapters loaded (eval mode)."""
-    rank = int(style.meta.get("rank", 8))
-    model = copy.deepcopy(prior)
-    add_lora(model, rank=rank)
-    try:
-        load_lora_state(model, style.adapters)
-    except ValueError as e:
-        if style.source is None:
-            raise
-        raise ValueError(f"{style.source}: invalid style file: {e}") from None
-    set_gain(model, gain)
-    return model.eval()
