@@ -1,7 +1,7 @@
 """Regenerate the project-made demo inputs in this folder (no external data; needs the shipped prior).
 
     python video2style/samples/make_samples.py                 # content clips + the style video
-    python video2style/samples/make_samples.py --seed 3        # other draws
+    python video2style/samples/make_samples.py --seed 3        # other draws (default 2)
     python video2style/samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
 
 Content clips are text-to-motion samples of the project's diffusion prior (neutral style), their rotations
@@ -36,7 +36,9 @@ def main(argv: list[str] | None = None) -> None:
     from lifting.render_humanoid import frame_camera, write_humanoid_video
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--seed", type=int, default=0)
+    # seed 2: of the draws 0-2 of the 34,000-step prior, the one whose walk, turn and run slide least (seed 0's
+    # turn slid 13.9 % of frames; docs/RESULTS.md, "The prior's FK stage")
+    ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE)
     ap.add_argument("--from-rotations", action="store_true", help="decode the samples' rotation channels")
     ap.add_argument("--content-bank", action="store_true",
