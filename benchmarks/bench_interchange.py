@@ -37,9 +37,9 @@ def gap_mm(a: Path, b: Path) -> float:
 
 
 def zero_style(folder: Path):
+    from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import load_models
 
     model = copy.deepcopy(load_models().prior)
     add_lora(model, rank=8)

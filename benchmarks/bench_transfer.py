@@ -44,8 +44,9 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
+    from transfer.bundle import load_models
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import apply_file, learn_file, load_models
+    from video2style.pipeline import apply_file, learn_file
 
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)

@@ -32,26 +32,20 @@ def main() -> None:
 
     from evaluation.classifiers import default_weights, load_classifier
     from evaluation.prior_eval import retrieval, sample_quality
+    from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
     from transfer.dataset import MotionDataset
     from transfer.shipped import weights_path
-    from video2style.pipeline import (
-        ENCODER_FILE,
-        PRIOR_FILE,
-        load_models,
-        load_models_from,
-    )
 
     if not (args.data / "features.safetensors").is_file():
         raise SystemExit(f"{args.data}: no dataset cache (video2style dataset ...)")
     m = load_models() if not (args.prior or args.encoder) else \
-        load_models_from(args.prior or weights_path(PRIOR_FILE), args.encoder or weights_path(ENCODER_FILE))
+        MethodBundle.from_pretrained((args.prior or weights_path(PRIOR_FILE), args.encoder or weights_path(ENCODER_FILE)))
     print(f"prior: {m.prior_path}")
     data = MotionDataset(args.data, args.split)
     ret = retrieval(m.motion_encoder, m.text_encoder, data)
     for k, v in ret.items():
         print(f"{k:22s} {v if k == 'clips' else f'{100 * v:.1f} %'}")
-    q = sample_quality(m.prior, m.mean, m.std, m.motion_encoder, m.text_encoder, data, args.previews, steps=args.steps,
-                       classifier=load_classifier(default_weights("content")))
+    q = sample_quality(m, data, args.previews, steps=args.steps, classifier=load_classifier(default_weights("content")))
     for k, v in q.items():
         print(f"{k:22s} {v:.4f}" if isinstance(v, float) else f"{k:22s} {v}")
     if args.json:

@@ -23,6 +23,7 @@ from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.representation import encode
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
+from transfer.bundle import load_models
 from transfer.style_config import LearnConfig
 from transfer.style_file import Style, style_model
 from video2style import pipeline
@@ -48,7 +49,7 @@ def learn(clip: Path, out: Path, iterations: int, whole: bool) -> dict:
 
 
 def apply(style: Style, clip: Path, out: Path, capped: bool) -> float:
-    model = style_model(pipeline.load_models().prior, style)
+    model = style_model(load_models().prior, style)
     real = pipeline.example_motion
     if not capped:
         pipeline.example_motion = lambda s, frames=None: real(s)
@@ -66,11 +67,11 @@ def choose_only(seconds: float, fps: float, out: Path) -> None:
     clip = out / "take.bvh"
     write_bvh(clip, random_motion(seconds=seconds, fps=fps, seed=0, amplitude=0.3),
               BvhLayout.default(CANONICAL.skeleton, scale=0.01))
-    m = pipeline.load_models()
+    m = load_models()
     t0 = time.time()
     read = pipeline.read_clip(clip)
     t1 = time.time()
-    part, used = pipeline.example_part(read.canonical, encode(read.canonical).sub_(m.mean).div_(m.std))
+    part, used = pipeline.example_part(read.canonical, m.normalize(encode(read.canonical), inplace=True))
     t2 = time.time()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"{seconds:g} s take at {fps:g} fps ({read.canonical.num_frames} frames at 20 fps): read {t1 - t0:.1f} s, "
@@ -95,7 +96,7 @@ def main() -> None:
     long_clip, short_clip = args.out / "long.bvh", args.out / "short.bvh"
     write_bvh(long_clip, random_motion(seconds=args.seconds, seed=1), layout)
     write_bvh(short_clip, random_motion(seconds=1.0, seed=2), layout)
-    pipeline.load_models()  # loaded once, outside the timings
+    load_models()  # loaded once, outside the timings
     print(f"learn, {args.seconds:g} s input, {args.iterations} iterations (2-core CPU):")
     for whole in (False, True):
         r = learn(long_clip, args.out / f"style_{'whole' if whole else 'bounded'}.v2s", args.iterations, whole)

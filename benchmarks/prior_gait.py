@@ -22,7 +22,7 @@ ACTIONS = ("walk", "run", "walk-turn-left")  # the same actions' labels in the d
 
 def gait(motion=None, gpos=None, fps: float = 20.0) -> tuple[float, float]:
     """``(skating ratio, ankle lift in metres)`` of a canonical motion, or of global positions ``(T, J, 3)``."""
-    from evaluation.metrics import foot_skating_ratio
+    from motioncore.skating import foot_skating_ratio
     from motioncore.skeleton import CANONICAL
 
     if motion is not None:
@@ -45,25 +45,19 @@ def main() -> None:
     import torch
 
     from motioncore.representation import decode, decode_positions
+    from motioncore.retarget import place_on_floor
+    from transfer.bundle import ENCODER_FILE, MethodBundle, load_models
     from transfer.sampling import generate
-    from transfer.scheduler import DiffusionScheduler
     from transfer.shipped import weights_path
-    from video2style.pipeline import (
-        ENCODER_FILE,
-        load_models,
-        load_models_from,
-        place_on_floor,
-        read_clip,
-    )
+    from video2style.pipeline import read_clip
 
-    m = load_models_from(args.prior, weights_path(ENCODER_FILE)) if args.prior else load_models()
+    m = MethodBundle.from_pretrained((args.prior, weights_path(ENCODER_FILE))) if args.prior else load_models()
     print(f"prior: {m.prior_path}")
     text = m.text_encoder.encode(list(CAPTIONS))
     rows: dict[str, list[tuple[float, float]]] = {}
     for seed in range(args.seeds):
-        x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), text, 80, args.steps, args.guidance,
-                     torch.Generator().manual_seed(seed))
-        for caption, feats in zip(CAPTIONS, x * m.std + m.mean):
+        x = generate(m.prior, m.scheduler, text, 80, args.steps, args.guidance, torch.Generator().manual_seed(seed))
+        for caption, feats in zip(CAPTIONS, m.denormalize(x)):
             rows.setdefault(f"prior: {caption}", []).append(gait(decode(feats)))
             rows.setdefault(f"  position channels: {caption}", []).append(
                 gait(gpos=decode_positions(feats.double()).float()))

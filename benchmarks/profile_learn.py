@@ -24,17 +24,18 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from motioncore.representation import encode
+    from transfer.bundle import load_models
     from transfer.learn import learn_style
     from transfer.style_config import LearnConfig
-    from video2style.pipeline import content_source, load_models, prior_samples
+    from video2style.pipeline import content_source, prior_samples
 
     m = load_models()
-    example = (encode(prior_samples(["a person walks, elderly style"], frames=200, seed=1)[0]) - m.mean) / m.std
+    example = m.normalize(encode(prior_samples(["a person walks, elderly style"], frames=200, seed=1)[0]))
     data = content_source(progress=lambda s: None)
     config = replace(LearnConfig(), iterations=args.iterations)
     t0 = time.perf_counter()
     with torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU]) as prof:
-        learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, "elderly", "walk", config)
+        learn_style(m, data, example, "elderly", "walk", config)
     total = time.perf_counter() - t0
     labels = {e.key: e.cpu_time_total / 1e6 for e in prof.key_averages() if e.key.startswith("learn: ")}
     print(f"learn_style, {args.iterations} iterations, {args.threads} threads: {total:.1f} s in all "
@@ -44,10 +45,10 @@ def main() -> None:
         print(f"  {key[7:]:22s} {1000 * sec / args.iterations:7.1f} ms / iteration  ({100 * sec / inner:4.1f} %)")
     print(f"  {'all labelled':22s} {1000 * inner / args.iterations:7.1f} ms / iteration")
     t0 = time.perf_counter()
-    learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, "elderly", "walk", replace(config, iterations=1))
+    learn_style(m, data, example, "elderly", "walk", replace(config, iterations=1))
     one = time.perf_counter() - t0
     t0 = time.perf_counter()
-    learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, "elderly", "walk", config)
+    learn_style(m, data, example, "elderly", "walk", config)
     many = time.perf_counter() - t0
     per_it = (many - one) / (args.iterations - 1)
     print(f"without the profiler: {per_it:.3f} s / iteration, {one - per_it:.1f} s fixed (neutral pair, model copy); "

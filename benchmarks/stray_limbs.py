@@ -4,7 +4,7 @@
     python benchmarks/stray_limbs.py --learn EXAMPLE.mp4 [EXAMPLE.bvh ...] --content ... [--styles-dir DIR]
     python benchmarks/stray_limbs.py ... --limb-guard 0     # without the apply-time guard (the ablation)
 
-For each style x content clip, the result is made as ``apply`` makes it (:func:`video2style.pipeline.stylize_motion`),
+For each style x content clip, the result is made as ``apply`` makes it (:func:`transfer.apply.stylize_motion`),
 and for each hand and foot its time-mean place in the hips' facing frame (canonical body) is compared with the
 segment from the content's place to the example's (:func:`evaluation.metrics.limb_stray`, after the
 style's stray-limb guard: ``ApplyConfig.limb_guard``). Prints the stray of
@@ -35,8 +35,10 @@ def main() -> None:
 
     from evaluation.metrics import LIMBS, limb_stray
     from motioncore.representation import encode
+    from transfer.apply import stylize_motion
+    from transfer.bundle import load_models
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import learn_file, load_models, read_clip, stylize_motion
+    from video2style.pipeline import learn_file, read_clip
 
     styles = list(args.style)
     for example in args.learn:
@@ -58,7 +60,7 @@ def main() -> None:
         model = style_model(m.prior, style)
         example = style.example.float()
         for clip in clips:
-            result, _ = stylize_motion(style, model, clip.canonical, args.strength, args.seed)
+            result, _ = stylize_motion(m, style, model, clip.canonical, args.strength, args.seed)
             stray = 100 * limb_stray(encode(clip.canonical), example, encode(result))
             worst = float(stray.max())
             worst_all.append(worst)

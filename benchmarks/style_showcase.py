@@ -67,10 +67,12 @@ def main() -> None:
 
     from evaluation.classifiers import default_weights, load_classifier, run_batched
     from motioncore.representation import decode, encode
+    from transfer.apply import stylize_motion
+    from transfer.bundle import load_models
     from transfer.dataset import MotionDataset
     from transfer.style_file import Style, style_model
     from video2style.paths import default_dataset_dir
-    from video2style.pipeline import learn_file, load_models, read_clip, stylize_motion
+    from video2style.pipeline import learn_file, read_clip
 
     m = load_models()
     test = MotionDataset(default_dataset_dir(), "test")
@@ -101,10 +103,10 @@ def main() -> None:
     example = decode(style.example)
     report["scuba"] = {"example_foot_lift": foot_lift(example), "content_foot_lift": [foot_lift(x) for _, x in walks]}
     for strength in sorted({args.strength, 1.0}):
-        results = [stylize_motion(style, model, x, strength)[0] for _, x in walks]
+        results = [stylize_motion(m, style, model, x, strength)[0] for _, x in walks]
         report["scuba"][f"strength {strength:g}"] = {"result_foot_lift": [foot_lift(r) for r in results],
                                                      "result_read_as": reads(results)}
-    results = [stylize_motion(style, model, x, args.strength)[0] for _, x in walks]
+    results = [stylize_motion(m, style, model, x, args.strength)[0] for _, x in walks]
     print(json.dumps(report["scuba"], indent=1))
     _preview([walks[0][1], example, results[0]], ["content", "SCUBA example", "result"], out / "scuba_walk.mp4")
 
@@ -120,7 +122,7 @@ def main() -> None:
         g_ex = gram(ex)
         rows = []
         for name, x in walks + runs:
-            r = stylize_motion(style, model, x, args.strength)[0]
+            r = stylize_motion(m, style, model, x, args.strength)[0]
             g_c, g_r = gram(encode(x)), gram(encode(r))
             rows.append({"clip": name, "gram_ratio": float((g_r - g_ex).norm() / (g_c - g_ex).norm()),
                          "displacement": displacement(r, x)})
@@ -129,13 +131,13 @@ def main() -> None:
         disp = sum(r["displacement"] for r in rows) / len(rows)
         print(f"xia {path.stem}: gram ratio {ratio:.3f} (walks+runs), displacement on Bandai {disp:.3f} m")
         for name, x in waves:
-            r = stylize_motion(style, model, x, args.strength)[0]
+            r = stylize_motion(m, style, model, x, args.strength)[0]
             report["waves"].append({"style": path.stem, "clip": name, "content_peak": hand_peak(x), "result_peak": hand_peak(r)})
         for name, x in foreign_clips:
-            r = stylize_motion(style, model, x, args.strength)[0]
+            r = stylize_motion(m, style, model, x, args.strength)[0]
             report["foreign"].append({"style": path.stem, "clip": name, "displacement": displacement(r, x)})
         if path.stem == "old_13_000":
-            _preview([walks[0][1], decode(style.example), stylize_motion(style, model, walks[0][1], args.strength)[0]],
+            _preview([walks[0][1], decode(style.example), stylize_motion(m, style, model, walks[0][1], args.strength)[0]],
                      ["content", "Xia old", "result"], out / "xia_old_walk.mp4")
     drops = [w["content_peak"] - w["result_peak"] for w in report["waves"]]
     print(f"waves: hand peak change, content - result: max {max(drops):.3f} m, mean {sum(drops) / len(drops):.3f} m "

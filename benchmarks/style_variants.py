@@ -34,29 +34,29 @@ def main() -> None:
     from evaluation.classifiers import default_weights, load_classifier
     from motioncore.representation import encode
     from transfer.apply import apply_style_features
+    from transfer.bundle import load_models
     from transfer.dataset import MotionDataset
     from transfer.learn import learn_style
     from transfer.style_config import split_config
     from transfer.style_file import style_model
-    from video2style.pipeline import load_models, read_clip
+    from video2style.pipeline import read_clip
 
     m = load_models()
     data = MotionDataset(args.data, "train")
     content_clf, style_clf = load_classifier(default_weights("content")), load_classifier(default_weights("style"))
-    example = (encode(read_clip(args.example, progress=None).canonical) - m.mean) / m.std
+    example = m.normalize(encode(read_clip(args.example, progress=None).canonical))
     clips = sorted(args.content.glob("dataset-2_*.bvh"))
     if not clips:
         raise SystemExit(f"{args.content}: no dataset-2_*.bvh clips")
     contents = [c.stem.split("_")[1] for c in clips]
-    xs = [(encode(read_clip(c).canonical) - m.mean) / m.std for c in clips]
+    xs = [m.normalize(encode(read_clip(c).canonical)) for c in clips]
     target = style_clf.config.classes.index(args.style)
     for name, overrides in json.loads(args.variants).items():
         learned, config = split_config(overrides)
         t0 = time.time()
-        style, info = learn_style(m.prior, m.motion_encoder, m.text_encoder, data, example, args.style, args.text, learned,
-                                  apply=config)
+        style, info = learn_style(m, data, example, args.style, args.text, learned, apply=config)
         model = style_model(m.prior, style)
-        raw = [apply_style_features(model, m.prior, x, learned, config, learned.transfer_step) * m.std + m.mean for x in xs]
+        raw = [m.denormalize(apply_style_features(m, model, x, learned, config)) for x in xs]
         with torch.no_grad():
             pred = [content_clf.config.classes[int(content_clf(content_clf.standardize(r)[None]).argmax())] for r in raw]
             probs = [torch.softmax(style_clf(style_clf.standardize(r)[None]), -1)[0] for r in raw]

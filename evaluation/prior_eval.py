@@ -14,14 +14,14 @@ from pathlib import Path
 
 import torch
 
-from evaluation.metrics import foot_skating_ratio, frechet_distance
+from evaluation.metrics import frechet_distance
 from motioncore.render import Panel, render_video
 from motioncore.representation import decode, decode_positions
+from motioncore.skating import foot_skating_ratio
 from motioncore.skeleton import CANONICAL
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
 from transfer.dataset import MotionDataset
 from transfer.sampling import generate
-from transfer.scheduler import DiffusionScheduler
 
 MAX_FRAMES = 160
 
@@ -70,23 +70,25 @@ def retrieval(encoder, text_encoder, data: MotionDataset, seed: int = 0, gallery
     return out
 
 
-def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset, out_dir: Path | None, length: int = 80,
-                   steps: int = 50, guidance: float = 2.5, seed: int = 0, classifier=None) -> dict:
-    """Samples for every content x style caption; ``classifier`` (the evaluation's content classifier) adds an FD on its features."""
-    scheduler = DiffusionScheduler(prior.config.num_train_steps)
+def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: int = 80, steps: int = 50,
+                   guidance: float = 2.5, seed: int = 0, classifier=None) -> dict:
+    """Samples ``(length, D)`` of the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`) for every content x
+    style caption, against ``data``'s clips; ``classifier`` (the evaluation's content classifier) adds an FD on its
+    features."""
+    prior, encoder, text_encoder, denormalize = bundle.prior, bundle.motion_encoder, bundle.text_encoder, bundle.denormalize
     gen = torch.Generator().manual_seed(seed)
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
     t0 = time.time()
     samples = []
     for c, s in pairs:
-        x = generate(prior, scheduler, text_encoder.encode([caption(c, s)]), length, steps, guidance, gen)[0]
+        x = generate(prior, bundle.scheduler, text_encoder.encode([caption(c, s)]), length, steps, guidance, gen)[0]
         samples.append(x)
     per_sample = (time.time() - t0) / len(pairs)
     real_idx = [i for i, r in enumerate(data.records) if r.dataset == "bandai2" and not r.mirrored]
     real = [data.clip(i)[:length] for i in real_idx]
     fd = frechet_distance(_embed(encoder, samples).numpy(), _embed(encoder, real).numpy())
-    pos_samples = [decode_positions(x * std + mean) for x in samples]
-    pos_real = [decode_positions(x * std + mean) for x in real]
+    pos_samples = [decode_positions(denormalize(x)) for x in samples]
+    pos_real = [decode_positions(denormalize(x)) for x in real]
     out = {"samples": len(samples), "seconds_per_sample": per_sample, "steps": steps, "guidance": guidance,
            "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
            "skating_real": foot_skating_ratio(pos_real)}
@@ -94,14 +96,14 @@ def sample_quality(prior, mean, std, encoder, text_encoder, data: MotionDataset,
         from evaluation.classifiers import run_batched
 
         def feats(xs):
-            return run_batched(classifier, [classifier.standardize(x * std + mean) for x in xs], "features")
+            return run_batched(classifier, [classifier.standardize(denormalize(x)) for x in xs], "features")
 
         out["fd_classifier_features"] = frechet_distance(feats(samples), feats(real))
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
         sk = CANONICAL.skeleton
         for c in BANDAI2_CONTENTS:
-            panels = [Panel(decode(samples[pairs.index((c, s))] * std + mean).global_positions(), sk.parents, s, names=sk.names)
+            panels = [Panel(decode(denormalize(samples[pairs.index((c, s))])).global_positions(), sk.parents, s, names=sk.names)
                       for s in STYLES]
             render_video(panels, out_dir / f"samples_{c}.mp4", CANONICAL.fps, size=(240, 240), progress=False)
     return out

@@ -15,7 +15,7 @@ features normalised with the cache's statistics. :func:`run_protocol` reports pe
   test originals and of the generated set (depends on the set sizes: compare equal protocols);
 - ``cra`` / ``sra``: content / style classifier accuracy against the content clip's content and
   the target style;
-- ``skating``: :func:`evaluation.metrics.foot_skating_ratio` of the generated motions' decoded
+- ``skating``: :func:`motioncore.skating.foot_skating_ratio` of the generated motions' decoded
   positions (the reference row gives the real test clips' ratio under the same rule);
 - ``contact_agreement``: foot contact agreement between each content clip and its output;
 - ``sec_per_transfer``: mean wall time of one ``transfer`` call.
@@ -39,11 +39,11 @@ from evaluation.classifiers import (
 )
 from evaluation.metrics import (
     foot_contact_agreement,
-    foot_skating_ratio,
     frechet_distance,
     limb_stray,
 )
 from motioncore.representation import decode_positions
+from motioncore.skating import foot_skating_ratio
 from transfer.captions import BANDAI2_CONTENTS, STYLES
 from transfer.dataset import ClipRecord, MotionDataset
 

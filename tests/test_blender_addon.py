@@ -49,10 +49,10 @@ def test_the_addon_keys_a_styled_copy_of_the_action(tmp_path):
     from motioncore.retarget import from_canonical, make_rig
     from tests.helpers import random_motion
     from tests.rig_corpus import case
+    from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
     from transfer.style_file import Style
     from video2style.paths import console_script
-    from video2style.pipeline import load_models
 
     c = case("mixamo")
     clip = tmp_path / "walk.bvh"

@@ -160,7 +160,7 @@ def _fake_apply(monkeypatch, gate: threading.Event | None = None, started: threa
         return {"output": str(out_dir / f"{clip.stem}.bvh"), "frames": 20, "seconds_transfer": 0.0}
 
     monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
-    monkeypatch.setattr("video2style.pipeline.load_models", lambda device="cpu": type("M", (), {"prior": None})())
+    monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
 

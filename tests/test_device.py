@@ -96,6 +96,7 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
     """The loops on the meta device (shapes only): a tensor made on the CPU and mixed in is an error there, as
     it would be on a GPU. CPU noise moved to the device, CPU text embeddings and a CPU clip are taken in."""
     from transfer.apply import apply_style_features
+    from transfer.bundle import MethodBundle
     from transfer.denoiser import Denoiser, DenoiserConfig
     from transfer.learn import reconstruction_loss
     from transfer.lora import add_lora
@@ -112,7 +113,7 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
     x, text, gen = torch.randn(130, FEATURES.dim), torch.randn(1, 384), torch.Generator().manual_seed(0)
     for mode in ("difference", "regenerate"):
         config = ApplyConfig(apply_mode=mode, delta_smoothing=1.0)
-        out = apply_style_features(style, prior, x.to(meta), LearnConfig(), config, 300, neutral_text=text)
+        out = apply_style_features(MethodBundle(prior), style, x.to(meta), LearnConfig(), config, neutral_text=text)
         assert out.device == meta and out.shape == x.shape
     assert generate(prior, DiffusionScheduler(), text, 40, 3, 2.5, gen).device == meta
     window = x[None, :80].to(meta)
@@ -121,10 +122,10 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
 
 @pytest.mark.skipif(not (SHIPPED / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 def test_device_cpu_and_auto_give_the_default_result(no_gpu, tmp_path):
+    from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
     from transfer.style_file import Style
     from video2style.cli import main
-    from video2style.pipeline import load_models
 
     assert load_models("cpu") is load_models() is load_models("auto")  # one copy per resolved device
     torch.manual_seed(0)

@@ -59,7 +59,7 @@ def fake_pipeline(monkeypatch):
 
     monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
     monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
-    monkeypatch.setattr("video2style.pipeline.load_models", lambda device="cpu": type("M", (), {"prior": None})())
+    monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
     return calls

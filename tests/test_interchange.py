@@ -227,9 +227,9 @@ def twist_deg(qa: list[float], qb: list[float]) -> float:
 def zero_style(tmp_path: Path, scale: float = 0.0) -> Path:
     """A style file of zero adapters (the result is the content, feet cleaned), or of random ones ``scale`` large
     (a style that changes the motion)."""
+    from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
     from transfer.style_file import Style
-    from video2style.pipeline import load_models
 
     model = copy.deepcopy(load_models().prior)
     add_lora(model, rank=8)

@@ -8,6 +8,7 @@ import torch
 
 from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
+from transfer.bundle import MethodBundle
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.learn import learn_style, partial_reason
@@ -36,7 +37,7 @@ def toys(tmp_path_factory):
     for p in encoder.parameters():
         p.requires_grad_(False)
     cache = write_synthetic_cache(tmp_path_factory.mktemp("cache"))
-    return prior, encoder, HashedText(), cache
+    return MethodBundle(prior, motion_encoder=encoder, text_encoder=HashedText()), cache
 
 
 def _config(**kw):
@@ -44,11 +45,12 @@ def _config(**kw):
 
 
 def test_learn_style_trains_only_adapters_and_records_metadata(toys):
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
+    prior = bundle.prior
     data = MotionDataset(cache, "train")
     example = data.clip(0)
     before = {k: v.clone() for k, v in prior.state_dict().items()}
-    style, info = learn_style(prior, encoder, text, data, example, "elderly", "walk", _config())
+    style, info = learn_style(bundle, data, example, "elderly", "walk", _config())
     assert all(torch.equal(before[k], v) for k, v in prior.state_dict().items())  # the prior is untouched
     assert style.meta["iterations"] == 4 and style.meta["content"] == "a person walks"
     assert style.meta["stopped_by"] == "iterations" and len(style.meta["loss_rec"]) == len(style.meta["loss_s"]) == 4
@@ -64,26 +66,23 @@ def test_learn_style_trains_only_adapters_and_records_metadata(toys):
 
 
 def test_learn_style_is_seeded_and_ablation_skips_the_pair(toys):
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data = MotionDataset(cache, "train")
-    a, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
-    b, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
+    a, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    b, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
     assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
-    _, info = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config(pair_generation=False))
+    _, info = learn_style(bundle, data, data.clip(1), "old", "walk", _config(pair_generation=False))
     assert torch.equal(info["pair"], data.clip(1))
     with pytest.raises(ValueError, match="expected an example"):
-        learn_style(prior, encoder, text, data, torch.zeros(10, 5), "old", "walk", _config())
+        learn_style(bundle, data, torch.zeros(10, 5), "old", "walk", _config())
 
 
 def test_evaluation_method_learns_once_per_example(toys):
-    from types import SimpleNamespace
-
     from video2style.evaluate import OnTheFly
 
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data = MotionDataset(cache, "train")
-    models = SimpleNamespace(prior=prior, motion_encoder=encoder, text_encoder=text)
-    method = OnTheFly(models, data, _config(), seed=0)
+    method = OnTheFly(bundle, data, _config(), seed=0)
     test = MotionDataset(cache, "test")
     style, content = test.clip(0), test.clip(3)
     out1 = method(content, style, "elderly", "walk")
@@ -95,36 +94,34 @@ def test_evaluation_method_learns_once_per_example(toys):
 
 
 def test_learning_budget_is_iterations_and_a_time_cap_is_reported(toys, monkeypatch):
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data = MotionDataset(cache, "train")
     # a busy machine: every clock reading is 10 s later than the last; without a cap it changes nothing
     clock = iter(range(0, 10**6, 10))
     monkeypatch.setattr("transfer.learn.time.time", lambda: float(next(clock)))
-    slow, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
+    slow, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
     monkeypatch.undo()
-    quick, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config())
+    quick, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
     assert slow.meta["iterations"] == quick.meta["iterations"] == 4
     assert all(torch.equal(slow.adapters[k], quick.adapters[k]) for k in quick.adapters)
     assert partial_reason(quick.meta, min_iterations=4) is None
     assert "only 4 fine-tuning iterations, fewer than the 5" in partial_reason(quick.meta, min_iterations=5)
-    capped, _ = learn_style(prior, encoder, text, data, data.clip(1), "old", "walk", _config(max_seconds=1e-9))
+    capped, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(max_seconds=1e-9))
     assert capped.meta["iterations"] == 0 and capped.meta["stopped_by"] == "time"
     assert "cut short by the time cap" in partial_reason(capped.meta, min_iterations=0)
 
 
 def test_variants_that_learn_alike_share_their_styles(toys):
     from dataclasses import replace
-    from types import SimpleNamespace
 
     from video2style.evaluate import OnTheFly
 
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data, test = MotionDataset(cache, "train"), MotionDataset(cache, "test")
-    models = SimpleNamespace(prior=prior, motion_encoder=encoder, text_encoder=text)
     shared = {}
-    regen = OnTheFly(models, data, _config(), shared=shared)
-    diff = OnTheFly(models, data, _config(), ApplyConfig(apply_mode="difference"), strength=0.0, shared=shared)
-    other = OnTheFly(models, data, replace(_config(), lambda_p=0.0), shared=shared)
+    regen = OnTheFly(bundle, data, _config(), shared=shared)
+    diff = OnTheFly(bundle, data, _config(), ApplyConfig(apply_mode="difference"), strength=0.0, shared=shared)
+    other = OnTheFly(bundle, data, replace(_config(), lambda_p=0.0), shared=shared)
     content, style = test.clip(3), test.clip(0)
     regen(content, style, "elderly", "walk")
     out = diff(content, style, "elderly", "walk")
@@ -138,25 +135,25 @@ def test_variants_that_learn_alike_share_their_styles(toys):
 @pytest.mark.parametrize("kw", [{"lambda_stat": 1.0}, {"lambda_stat": 1.0, "stat_reference": "neutral"},
                                 {"lambda_dir": 1.0, "lambda_s": 0.0}])
 def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data = MotionDataset(cache, "train")
-    plain, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_dir=0.0))
-    other, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(**kw))
+    plain, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_dir=0.0))
+    other, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(**kw))
     assert all(torch.isfinite(v).all() for v in other.adapters.values())
     assert any(not torch.equal(plain.adapters[k], other.adapters[k]) for k in plain.adapters)
     assert other.meta["config"]["lambda_stat"] == kw.get("lambda_stat", 0.0)
 
 
 def test_words_matter_only_through_the_semantic_loss(toys):
-    prior, encoder, text, cache = toys
+    bundle, cache = toys
     data = MotionDataset(cache, "train")
-    a, _ = learn_style(prior, encoder, text, data, data.clip(1), "proud", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
-    b, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
+    a, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
+    b, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
     assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
-    c, _ = learn_style(prior, encoder, text, data, data.clip(1), "proud", "walk", _config())  # the defaults: word-free
-    d, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config())
+    c, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", _config())  # the defaults: word-free
+    d, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config())
     assert all(torch.equal(c.adapters[k], d.adapters[k]) for k in c.adapters)
-    e, _ = learn_style(prior, encoder, text, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.1))
+    e, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.1))
     assert any(not torch.equal(d.adapters[k], e.adapters[k]) for k in d.adapters)  # L_s on: the words enter
     with pytest.raises(ValueError, match="expected stat_reference"):
-        learn_style(prior, encoder, text, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))
+        learn_style(bundle, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))

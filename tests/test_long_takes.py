@@ -10,6 +10,7 @@ import torch
 import transfer.apply as apply_mod
 from motioncore.representation import FEATURES
 from tests.test_style import _trained_style, tiny_denoiser
+from transfer.bundle import MethodBundle
 from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import ApplyConfig, LearnConfig
@@ -62,7 +63,7 @@ def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):
     learned, config = LearnConfig(), ApplyConfig(apply_mode=mode, neutralize_step=200)
     text = torch.randn(1, 384, generator=torch.Generator().manual_seed(1))
     for neutral in (None, text):
-        got = apply_mod.apply_style_features(model, prior, x.clone(), learned, config, 300, 3, neutral)
+        got = apply_mod.apply_style_features(MethodBundle(prior), model, x.clone(), learned, config, None, 3, neutral)
         want = whole_list_apply(model, prior, x.clone(), learned, config, 300, 3, neutral)
         assert torch.equal(got, want)
 

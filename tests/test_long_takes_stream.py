@@ -110,10 +110,11 @@ shipped = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), r
 
 @pytest.fixture(scope="module")
 def style_and_model(tmp_path_factory):
+    from transfer.bundle import load_models
     from transfer.style_config import LearnConfig
     from transfer.style_file import Style, style_model
     from video2style.demo import SAMPLES
-    from video2style.pipeline import learn_file, load_models
+    from video2style.pipeline import learn_file
 
     torch.set_num_threads(1)
     out = tmp_path_factory.mktemp("style") / "s.v2s"

@@ -6,14 +6,13 @@ import torch
 
 from evaluation.metrics import (
     foot_contact_agreement,
-    foot_skating_ratio,
     frechet_distance,
     gaussian_frechet,
     recognition_accuracy,
-    skating_frames,
 )
 from motioncore.kinematics import rest_positions
 from motioncore.representation import FEATURES, encode
+from motioncore.skating import foot_skating_ratio, skating_frames
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 

@@ -7,16 +7,12 @@ import pytest
 import torch
 
 from motioncore.bvh import read_bvh
+from transfer.bundle import load_models
 from transfer.shipped import SHIPPED as WEIGHTS
 from transfer.style_config import LearnConfig
 from transfer.style_file import Style, style_model
 from video2style.demo import SAMPLES
-from video2style.pipeline import (
-    PartialStyleError,
-    apply_file,
-    learn_file,
-    load_models,
-)
+from video2style.pipeline import PartialStyleError, apply_file, learn_file
 
 pytestmark = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 
@@ -49,7 +45,7 @@ def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     src, _ = read_bvh(SAMPLES / "run_prior.bvh")
     assert out.skeleton.names == src.skeleton.names and out.num_frames == src.num_frames and out.fps == src.fps
     assert 0.0 <= info["skating_after"] <= info["skating_before"] + 1e-6
-    from evaluation.metrics import foot_skating_ratio
+    from motioncore.skating import foot_skating_ratio
     from video2style.pipeline import read_clip
 
     content = read_clip(SAMPLES / "run_prior.bvh").canonical  # what it passes on, said beside the result's
@@ -75,7 +71,7 @@ def test_learn_command_refuses_a_partial_style_in_one_line(tmp_path, monkeypatch
 
 
 def test_a_style_from_another_prior_is_warned_about(tmp_path):
-    from video2style.pipeline import base_model_warning
+    from transfer.bundle import base_model_warning
 
     style = Style({}, {"base_model_sha256": "0" * 64})
     assert "learned on another prior" in base_model_warning(style, Path("x.v2s"))

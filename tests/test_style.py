@@ -7,6 +7,7 @@ from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from transfer.apply import apply_style_features
+from transfer.bundle import MethodBundle
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
 from transfer.style_config import ApplyConfig, LearnConfig, strength_to_step
@@ -81,11 +82,11 @@ def test_apply_keeps_length_and_trajectory():
     prior = tiny_denoiser()
     model = style_model(prior, _trained_style(prior))
     x = torch.randn(150, FEATURES.dim)
-    out = apply_style_features(model, prior, x, LearnConfig(), ApplyConfig(), step=300, seed=0)
+    out = apply_style_features(MethodBundle(prior), model, x, LearnConfig(), ApplyConfig(), seed=0)
     assert out.shape == x.shape
     for s in (FEATURES.root_rvel, FEATURES.root_lvel):
         assert torch.allclose(out[:, s], x[:, s], atol=1e-5)
-    again = apply_style_features(model, prior, x, LearnConfig(), ApplyConfig(), step=300, seed=0)
+    again = apply_style_features(MethodBundle(prior), model, x, LearnConfig(), ApplyConfig(), seed=0)
     assert torch.equal(out, again)  # seeded
 
 
@@ -150,13 +151,15 @@ def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
     assert strength_settings(None, learned, diff) == (300, diff)  # the style as learned
     with pytest.raises(ValueError, match="strength: expected a number from 0 to 1"):
         strength_settings(1.5, learned, diff)
-    assert torch.allclose(apply_style_features(model, prior, x, learned, replace(diff, style_scale=0.0), 300), x,
-                          atol=1e-6)
-    one = apply_style_features(model, prior, x, learned, diff, 300)
-    two = apply_style_features(model, prior, x, learned, replace(diff, style_scale=2.0), 300)
+    bundle = MethodBundle(prior)
+    assert torch.allclose(apply_style_features(bundle, model, x, learned, replace(diff, style_scale=0.0)), x, atol=1e-6)
+    assert torch.allclose(apply_style_features(bundle, model, x, learned, diff, strength=0.0), x, atol=1e-6)
+    one = apply_style_features(bundle, model, x, learned, diff)
+    two = apply_style_features(bundle, model, x, learned, replace(diff, style_scale=2.0))
+    assert torch.equal(apply_style_features(bundle, model, x, learned, diff, strength=1.0), two)  # strength 1: twice
     assert torch.allclose(two - x, 2 * (one - x), atol=1e-5)  # linear in the scale: strength moves monotonically
     # the same style through the prior alone: no difference at all
-    assert torch.allclose(apply_style_features(prior, prior, x, learned, diff, 300), x, atol=1e-6)
+    assert torch.allclose(apply_style_features(bundle, prior, x, learned, diff), x, atol=1e-6)
 
 
 def test_style_guidance_weight_one_is_the_style_model():

@@ -16,6 +16,7 @@ from motioncore.representation import FEATURES, encode
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_motion
 from tests.test_style import _trained_style, tiny_denoiser
+from transfer.bundle import MethodBundle
 from transfer.style_config import CONFIG_RANGES, check_config_value
 from transfer.style_file import Style, style_model, validate_config
 from video2style.cli import main
@@ -129,10 +130,11 @@ def test_a_style_config_that_would_make_apply_slow_is_refused(config, field):
 def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkeypatch):
     from video2style import pipeline
 
-    monkeypatch.setattr(pipeline, "stylize_motion", lambda style, model, content, *a: (content, {}))
+    monkeypatch.setattr(pipeline, "stylize_motion", lambda bundle, style, model, content, *a: (content, {}))
+    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": None)
     long_example = encode(random_motion(seconds=150.0))  # a style learned from a 2.5-minute input
     style = Style({}, {"style": "long"}, long_example)
-    info = pipeline.apply_file(style, None, _clip(tmp_path / "c.bvh", seconds=1.0), tmp_path / "out")
+    info = pipeline.apply_file(style, torch.nn.Module(), _clip(tmp_path / "c.bvh", seconds=1.0), tmp_path / "out")
     text = Path(info["player"]).read_text()
     data = json.loads(text[text.index("= {") + 2:text.rindex(";")])
     assert data["frames"] == info["frames"] == 20 and [p["n"] for p in data["panels"]] == [20, 20, 20]
@@ -162,13 +164,13 @@ def test_learn_uses_a_bounded_part_of_a_long_input_and_says_which(tmp_path, monk
 
     seen = {}
 
-    def learn_style(prior, enc, text_enc, data, example, words, content, config, prior_path, progress, show_bar, apply):
+    def learn_style(bundle, data, example, words, content, config, progress, show_bar, apply):
         seen["frames"] = example.shape[0]
         return Style({}, {"style": words, "content": content, "iterations": 40, "iterations_planned": 40}), {}
 
     monkeypatch.setattr("transfer.learn.learn_style", learn_style)
-    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": pipeline.Models(
-        None, torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim), None, None, None))
+    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": MethodBundle(
+        tiny_denoiser(), torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim)))
     monkeypatch.setattr(pipeline, "content_source", lambda progress: None)
     lines = []
     clip = _clip(tmp_path / "long.bvh", seconds=60.0)
@@ -275,7 +277,7 @@ def test_pose_options_are_named_and_checked_before_the_video_is_read(tmp_path, c
 
 
 def test_a_tempo_that_is_not_a_number_names_the_option():
-    from video2style.pipeline import resolve_tempo
+    from transfer.tempo import resolve_tempo
 
     for bad in ("abc", "nan", "9"):
         with pytest.raises(ValueError, match=f"--tempo: expected off, auto or a number from 0.5 to 1.5, got {bad}"):
@@ -286,7 +288,7 @@ def test_apply_refuses_a_bad_tempo_before_loading_the_models(tmp_path, capsys, m
     def no_models(*a, **k):
         raise AssertionError("the models were loaded")
 
-    monkeypatch.setattr("video2style.pipeline.load_models", no_models)
+    monkeypatch.setattr("transfer.bundle.load_models", no_models)
     style = tmp_path / "s.v2s"
     Style(_trained_style(tiny_denoiser()).adapters, {"style": "s", "rank": 8}).save(style)
     out = tmp_path / "out"
@@ -368,11 +370,12 @@ def test_a_clip_whose_preview_fails_leaves_none_of_its_outputs(tmp_path, monkeyp
     def full_disk(*a, **k):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(pipeline, "stylize_motion", lambda style, model, content, *a: (content, {}))
+    monkeypatch.setattr(pipeline, "stylize_motion", lambda bundle, style, model, content, *a: (content, {}))
+    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": None)
     monkeypatch.setattr("motioncore.render.render_video", full_disk)
     out = tmp_path / "out"
     with pytest.raises(OSError):
-        pipeline.apply_file(Style({}, {}), None, _clip(tmp_path / "c.bvh"), out)
+        pipeline.apply_file(Style({}, {}), torch.nn.Module(), _clip(tmp_path / "c.bvh"), out)
     assert not list(out.iterdir())
 
 

@@ -1,4 +1,7 @@
-"""Applying a learned style to canonical content motions of any length."""
+"""Applying a learned style to canonical content motions of any length: what the motion encoder reads in a clip
+(:func:`read_motion`, :func:`neutral_caption`), the windowed editing of normalised features
+(:func:`apply_style_features`, the one place apply, batch, Ray and evaluation style features), how features become a
+motion (:func:`decoder`, the stray-limb guard), and a canonical motion styled whole (:func:`stylize_motion`)."""
 from __future__ import annotations
 
 import functools
@@ -10,11 +13,11 @@ import torch
 from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, decode, encode, facing_angle
+from motioncore.skating import motion_skating
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 from transfer.device import model_device
 from transfer.edit import neutralize, stylize
-from transfer.scheduler import DiffusionScheduler
-from transfer.style_config import ApplyConfig, LearnConfig
+from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
 from transfer.windows import crossfade, window_starts
 
 # Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
@@ -108,35 +111,38 @@ def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tenso
 
 
 @torch.no_grad()
-def neutralize_features(prior, x: torch.Tensor, neutral_text: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
+def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                         seed: int = 0, window: int = 80, overlap: int = 20) -> torch.Tensor:
     """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``;
-    noised to ``config.neutralize_step`` and redrawn as the style's pair was (``learned``). Runs on the prior's
-    device; the result is on ``x``'s."""
+    noised to ``config.neutralize_step`` and redrawn by the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`)
+    as the style's pair was (``learned``). Runs on the prior's device; the result is on ``x``'s."""
+    prior = bundle.prior
     device = model_device(prior)
-    scheduler = DiffusionScheduler(prior.config.num_train_steps)
     starts, windows = _window_views(x.to(device), window, overlap)
     gen = torch.Generator().manual_seed(seed + 1)
-    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, learned, gen, config.neutralize_step),
+    parts = _in_batches(lambda p, t: neutralize(prior, bundle.scheduler, p, t, learned, gen, config.neutralize_step),
                         starts, windows, neutral_text.to(device).expand(len(starts), -1))
     return crossfade(parts, starts, x.shape[0]).to(x.device)
 
 
 @torch.no_grad()
-def apply_style_features(model, prior, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig, step: int,
-                         seed: int = 0, neutral_text: torch.Tensor | None = None, window: int = 80,
-                         overlap: int = 20) -> torch.Tensor:
-    """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` (``learned``: the style's learning config,
-    ``config`` its apply settings, ``step`` K); ``neutral_text (1, E)`` first neutralises a styled clip.
-    Runs on the models' device (``model`` and ``prior`` on one); the result is on ``x``'s."""
+def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
+                         strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
+                         window: int = 80, overlap: int = 20) -> torch.Tensor:
+    """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
+    of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
+    apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
+    ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
+    crossfaded over 20. Runs on the models' device (``model`` and the prior on one); the result is on ``x``'s."""
+    step, config = strength_settings(strength, learned, config)
     device = model_device(model)
     out_device, x = x.device, x.to(device)
     if neutral_text is not None and config.neutralize_step > 0:
-        x = neutralize_features(prior, x, neutral_text, learned, config, seed, window, overlap)
-    scheduler = DiffusionScheduler(model.config.num_train_steps)
+        x = neutralize_features(bundle, x, neutral_text, learned, config, seed, window, overlap)
     starts, windows = _window_views(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
-    chunks = _in_batches(lambda p: stylize(model, scheduler, p, learned, config, gen, step=step, prior=prior), starts, windows)
+    chunks = _in_batches(lambda p: stylize(model, bundle.scheduler, p, learned, config, gen, step=step, prior=bundle.prior),
+                         starts, windows)
     return crossfade(chunks, starts, x.shape[0]).to(out_device)
 
 
@@ -184,16 +190,39 @@ def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, co
     return guarded
 
 
-def apply_style_motion(model, prior, content: Motion, mean: torch.Tensor, std: torch.Tensor, learned: LearnConfig,
-                       config: ApplyConfig, step: int, seed: int = 0, neutral_text: torch.Tensor | None = None, clean: bool = True,
-                       example: torch.Tensor | None = None) -> Motion:
-    """A canonical content motion (canonical fps) -> the stylised canonical motion on the same path (models on
-    any device; the motion and ``mean``/``std`` on the CPU). ``example``: the style example's raw features
-    ``(T', D)``, for the stray-limb guard (``config.limb_guard``; none without it)."""
+def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
+    """IK foot cleanup of a canonical ``motion`` against its ``content``'s contacts
+    (:func:`motioncore.cleanup.cleanup_feet`); returns the motion and the foot-skating ratio before/after."""
+    cleaned = cleanup_feet(motion, reference=content)
+    return cleaned, {"skating_before": motion_skating(motion), "skating_after": motion_skating(cleaned)}
+
+
+def stylize_motion(bundle, style, model, content: Motion, strength: float = 0.5, seed: int = 0,
+                   neutralize: str = "auto") -> tuple[Motion, dict]:
+    """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters,
+    :func:`transfer.style_file.style_model`) to a canonical content motion (canonical fps; ``T`` frames) with the
+    models of ``bundle`` (:class:`transfer.bundle.MethodBundle`): the stylised canonical motion, ``T`` frames on the
+    same path. Stray limbs are drawn back (``limb_guard`` of the style's config, :func:`guard_stray_limbs`), then
+    the feet cleaned against the content (:func:`cleanup_feet_measured`).
+
+    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
+    auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
+    what was decided (``detected``, ``neutralized``) with the foot-skating ratios before and after cleanup and of
+    the content itself. Runs on ``model``'s device (the bundle's models there too); the motion and the result are
+    on the CPU."""
+    learned, config = style.configs()
+    neutral_text, detected = None, None
+    if neutralize != "never":
+        reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder,
+                                                bundle.normalize(encode(content)), neutralize)
+        detected = reading.describe()
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
-    out = apply_style_features(model, prior, (encode(content) - mean) / std, learned, config, step, seed, neutral_text)
-    out = out.mul_(std).add_(mean)
+    out = apply_style_features(bundle, model, bundle.normalize(encode(content)), learned, config, strength, seed,
+                               neutral_text)
+    out = bundle.denormalize(out, inplace=True)
     p0 = content.global_positions()[:1].double()
-    result = decoder(config, reference=content, example=example)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
-                             start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
-    return cleanup_feet(result, reference=content) if clean else result
+    raw = decoder(config, reference=content, example=style.example)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
+                                                                   start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
+    result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
+    return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
+                    "skating_content": motion_skating(content)}

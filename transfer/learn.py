@@ -13,7 +13,6 @@ from __future__ import annotations
 import copy
 import itertools
 import time
-from pathlib import Path
 
 import torch
 from torch.profiler import record_function
@@ -27,7 +26,7 @@ from transfer.lora import add_lora, lora_state
 from transfer.sampling import denoising_steps, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, ApplyConfig, LearnConfig, config_dict
-from transfer.style_file import Style, file_sha256
+from transfer.style_file import Style
 from transfer.style_losses import (
     directional_loss,
     neutral_shift,
@@ -43,28 +42,29 @@ def _random_window_starts(n: int, window: int, count: int, generator: torch.Gene
     return torch.randint(n - window + 1, (count,), generator=generator).tolist()
 
 
-def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Tensor, style_words: str, content: str,
-                config: LearnConfig, prior_path: Path | None = None, progress=None,
-                show_bar: bool = False, apply: ApplyConfig | None = None) -> tuple[Style, dict]:
-    """Learn a style from one normalised example ``(T, D)`` whose content is ``content`` (a Bandai content name
-    or free text). ``dataset``: the prior's training cache (content motions for L_s). Returns the style and stats.
+def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, content: str, config: LearnConfig,
+                progress=None, show_bar: bool = False, apply: ApplyConfig | None = None) -> tuple[Style, dict]:
+    """Learn a style on the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`: its prior, scheduler, motion
+    and text encoders) from one normalised example
+    ``(T, D)`` whose content is ``content`` (a Bandai content name or free text). ``dataset``: the prior's training
+    cache (content motions for the content losses). Returns the style and stats (``pair (T, D)``, ``history``).
 
     The budget is ``config.iterations``; with the same seed the adapters are the same on any machine, however
     busy. ``config.max_seconds`` (optional) caps the wall time; when it cuts learning short, ``meta["stopped_by"]``
     is ``"time"`` (see :func:`partial_reason`). ``show_bar``: a tqdm bar of iterations with an ETA. ``apply``: the
     apply settings the style file records beside ``config`` (default: today's, :class:`ApplyConfig`).
 
-    Learning runs on the prior's device (the motion encoder must be on it too); random numbers come from a
+    Learning runs on the prior's device (the bundle's motion encoder is on it too); random numbers come from a
     seeded CPU generator, so the noise is the same on any device. The style's tensors are on the CPU.
     """
     if example.ndim != 2 or example.shape[1] != FEATURES.dim:
         raise ValueError(f"learn_style: expected an example (T, {FEATURES.dim}), got {tuple(example.shape)}")
     t0 = time.time()
+    prior, motion_encoder, text_encoder, scheduler = bundle.prior, bundle.motion_encoder, bundle.text_encoder, bundle.scheduler
     device = model_device(prior)
     example = example.to(device)
     gen = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)
-    scheduler = DiffusionScheduler(prior.config.num_train_steps)
     neutral_text = content if content.startswith("a person") else caption(content, None)
     say = progress or (lambda msg: None)
 
@@ -160,7 +160,7 @@ def learn_style(prior, motion_encoder, text_encoder, dataset, example: torch.Ten
         "example_frames": int(example.shape[0]),
         "loss_rec": [float(f"{h[0]:.5g}") for h in history],
         "loss_s": [float(f"{h[1]:.5g}") for h in history],
-        "base_model_sha256": file_sha256(prior_path) if prior_path else None,
+        "base_model_sha256": None,  # the prior's file, recorded where a style is learned from a file to be shared
         "rank": config.rank,
     }
     return Style(lora_state(model), meta), {"pair": pair.cpu(), "history": history}

@@ -198,7 +198,7 @@ def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: floa
     """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
     (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
     output folder that does not load is learned again. One batch per output folder at a time. The models run
-    on ``device`` (:func:`video2style.pipeline.load_models`). ``rotate``: every video's frames turned this many
+    on ``device`` (:func:`transfer.bundle.load_models`). ``rotate``: every video's frames turned this many
     degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
     out_dir = Path(out_dir)
     videos, clips, keys = plan(videos_dir, content_dir, out_dir, progress)
@@ -235,8 +235,8 @@ def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, 
 def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
                learn_config, seed: int, progress, report: BatchReport, device: str = "cpu",
                rotate: int | None = None) -> None:
+    from transfer.bundle import load_models
     from transfer.style_file import style_model
-    from video2style.pipeline import load_models
 
     t0 = time.time()
     try:

@@ -2,7 +2,7 @@
 
 Work units: one task per video's ``learn`` (about a minute of CPU), then, as each style lands, one task
 per chunk of clips to ``apply`` it to (many short items per task, so scheduling does not dominate).
-Each worker process loads the models once (:func:`video2style.pipeline.load_models` is cached per
+Each worker process loads the models once (:func:`transfer.bundle.load_models` is cached per
 process) and runs torch on cores / workers threads (one on a cluster), so workers × threads never
 exceed the cores.
 Style files go to ``OUT/styles`` and reach the apply tasks by that path: on several machines ``OUT``
@@ -82,8 +82,8 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
+    from transfer.bundle import load_models
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import load_models
 
     torch.set_num_threads(threads)
     style = Style.load(Path(style_path))

@@ -415,13 +415,10 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
 
 
 def _diffusion_runner(args, joint_map):
+    from transfer.bundle import base_model_warning, load_models
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import (
-        apply_file,
-        base_model_warning,
-        load_models,
-        resolve_tempo,
-    )
+    from transfer.tempo import resolve_tempo
+    from video2style.pipeline import apply_file
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
         raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method park --domain D)")

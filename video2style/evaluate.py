@@ -41,16 +41,17 @@ from video2style.methods import METHODS, VARIANTS, method_names
 HU_ET_AL = {"cra": 0.9341, "sra": 0.6011, "fmd": 2.33}  # their Table 1 row, with their classifiers
 
 
-def cleaned(features_fn, mean: torch.Tensor, std: torch.Tensor, decoder_for=lambda content, example: decode):
+def cleaned(features_fn, data, decoder_for=lambda content, example: decode):
     """Wrap a method returning normalised features so its output goes through decoding (``decoder_for(content
     motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
     the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
-    stray-limb guard included), foot cleanup and encoding again."""
+    stray-limb guard included), foot cleanup and encoding again; normalised as the protocol's ``data``
+    (:class:`transfer.dataset.MotionDataset`) is."""
     def transfer(content, style, style_label, content_label):
         out = features_fn(content, style, style_label, content_label)
-        content_m = decode(content * std + mean)
-        out_m = decoder_for(content_m, style * std + mean)(out * std + mean, content_m.fps)
-        return (encode(cleanup_feet(out_m, reference=content_m)) - mean) / std
+        content_m = decode(data.denormalize(content))
+        out_m = decoder_for(content_m, data.denormalize(style))(data.denormalize(out), content_m.fps)
+        return data.standardize(encode(cleanup_feet(out_m, reference=content_m)))
 
     return transfer
 
@@ -71,12 +72,12 @@ class OnTheFly:
     neutralised contents.
     """
 
-    def __init__(self, models, content_data, learned, config=None, seed: int = 0, progress=None,
+    def __init__(self, bundle, content_data, learned, config=None, seed: int = 0, progress=None,
                  strength: float | None = None, shared: dict | None = None, store: Path | None = None,
                  words: str | None = None):
         from transfer.style_config import ApplyConfig
 
-        self.m, self.data, self.learned, self.seed, self.strength = models, content_data, learned, seed, strength
+        self.m, self.data, self.learned, self.seed, self.strength = bundle, content_data, learned, seed, strength
         self.config = config or ApplyConfig()
         self.words = words  # the style words learning is given (None: the style's name)
         self.store = store  # a folder keeping learned styles between runs (keyed by example and learning config)
@@ -101,8 +102,7 @@ class OnTheFly:
         if key not in self.shared:
             t0 = time.time()
             content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
-            learned, _ = learn_style(self.m.prior, self.m.motion_encoder, self.m.text_encoder, self.data, style,
-                                     words, content, self.learned, apply=self.config)
+            learned, _ = learn_style(self.m, self.data, style, words, content, self.learned, apply=self.config)
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
@@ -124,17 +124,15 @@ class OnTheFly:
         if key not in self.shared:  # each content clip goes to six styles: neutralise it once
             _, text = neutral_caption(self.m.motion_encoder, self.m.text_encoder, content)
             skip = text is None or self.config.neutralize_step == 0
-            self.shared[key] = content if skip else neutralize_features(self.m.prior, content, text, self.learned, self.config,
-                                                                                  self.seed)
+            self.shared[key] = content if skip else neutralize_features(self.m, content, text, self.learned, self.config, self.seed)
         return self.shared[key]
 
     def __call__(self, content, style, style_label, content_label):
         from transfer.apply import apply_style_features
-        from transfer.style_config import strength_settings
 
         model = self._model(style, style_label)
-        step, config = strength_settings(self.strength, self.learned, self.config)
-        return apply_style_features(model, self.m.prior, self._neutral(content), self.learned, config, step, self.seed)
+        return apply_style_features(self.m, model, self._neutral(content), self.learned, self.config, self.strength,
+                                    self.seed)
 
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, park_weights: Path | None = None,
@@ -166,19 +164,13 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
             from video2style.park_apply import park_model
 
             method = park_method(park_model(park_weights), seed)
-            methods[name] = method if name == "park-raw" else cleaned(method, test.mean, test.std,
+            methods[name] = method if name == "park-raw" else cleaned(method, test,
                                                                        lambda content, example: decode_via_positions)
         else:
             from transfer.apply import decoder
-            from video2style.pipeline import (
-                ENCODER_FILE,
-                PRIOR_FILE,
-                load_models,
-                load_models_from,
-            )
+            from transfer.bundle import MethodBundle, load_models
 
-            m = load_models() if models_dir is None else load_models_from(Path(models_dir) / PRIOR_FILE,
-                                                                          Path(models_dir) / ENCODER_FILE)
+            m = load_models() if models_dir is None else MethodBundle.from_pretrained(Path(models_dir))
             train = train or MotionDataset(data_dir, "train", exclude_styles=exclude_styles)
             learned, config = split_config({"seed": seed, **VARIANTS[name]})
             if iterations is not None:
@@ -188,9 +180,8 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
                 learner = OnTheFly(m, train, learned, config, seed, progress=lambda s, n=name: progress(f"  {n}: {s}"),
                                    strength=strength, shared=shared, store=style_cache, words=words)
                 learners[row] = learner
-                methods[row] = cleaned(learner, test.mean, test.std,
-                                       lambda content, example, c=config: decoder(c, reference=content,
-                                                                                  example=example))
+                methods[row] = cleaned(learner, test, lambda content, example, c=config: decoder(c, reference=content,
+                                                                                                 example=example))
     return methods, learners
 
 
@@ -235,7 +226,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
     if unseen:
         models_dir, excluded = Path(unseen_models or unseen_models_dir()), HELD_OUT_STYLES
         if any(n.startswith("ours") for n in names):
-            from video2style.pipeline import ENCODER_FILE, PRIOR_FILE
+            from transfer.bundle import ENCODER_FILE, PRIOR_FILE
 
             for f in (PRIOR_FILE, ENCODER_FILE):
                 if not (models_dir / f).is_file():

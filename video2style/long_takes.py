@@ -156,12 +156,13 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     of its first :data:`video2style.preview.MAX_PREVIEW_SECONDS`. Returns what apply_file returns (``skating_*``
     pooled over the spans, each span measured on its own) and ``streamed``, the number of spans."""
     import transfer.apply as apply_mod
+    from motioncore.skating import motion_skating
+    from transfer.bundle import load_models
     from transfer.device import model_device
     from transfer.edit import neutralize as neutralize_windows
     from transfer.edit import stylize
-    from transfer.scheduler import DiffusionScheduler
     from transfer.style_config import strength_settings
-    from video2style.pipeline import MAX_CLIP_SECONDS, load_models, skating
+    from video2style.pipeline import MAX_CLIP_SECONDS
 
     t0 = time.time()
     span = SPAN_FRAMES if span is None else span  # the module's, read at the call (tests make them small)
@@ -197,14 +198,14 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     neutral_text, detected = None, None
     if neutralize != "never":  # the reading is of the first 8 s (read_motion)
         reading, neutral_text = apply_mod.neutral_caption(m.motion_encoder, m.text_encoder,
-                                                          (encode(head, floor=feet_min) - m.mean) / m.std, neutralize)
+                                                          m.normalize(encode(head, floor=feet_min)), neutralize)
         detected = reading.describe()
     p0 = head.global_positions()[:1].double()
     state = (0, float(facing_angle(p0)[0]), (float(p0[0, 0, 0]), float(p0[0, 0, 2])))  # frame, yaw, xz
     del head
 
     device = model_device(model)
-    scheduler = DiffusionScheduler(model.config.num_train_steps)
+    scheduler = m.scheduler
     batch = apply_mod.WINDOW_BATCH
     streams = []
     if neutral_text is not None and config.neutralize_step > 0:
@@ -231,12 +232,12 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
             b = min(n, a + span)
             e0, e1 = max(0, a - 1), min(n, b + 1)
             part = take.canonical(e0, e1)
-            feats = ((encode(part, floor=feet_min) - m.mean) / m.std)[a - e0:b - e0]
+            feats = m.normalize(encode(part, floor=feet_min))[a - e0:b - e0]
             content.append(part.slice(a - e0, b - e0))
             x = feats.to(device)
             for s in streams:
                 x = s.feed(x)
-            styled.append(x.cpu().mul_(m.std).add_(m.mean))
+            styled.append(m.denormalize(x.cpu(), inplace=True))
             while c < n and (styled.end >= min(n, c + span + margin)):
                 d = min(n, c + span)
                 lo, hi = max(0, c - margin), min(n, d + margin)
@@ -248,9 +249,9 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
                 cleaned = cleanup_feet(raw, reference=ref, floor=feet_min)
                 keep = slice(c - lo, d - lo)
                 k = d - c
-                sums["skating_before"] += skating(raw.slice(keep.start, keep.stop)) * k
-                sums["skating_after"] += skating(cleaned.slice(keep.start, keep.stop)) * k
-                sums["skating_content"] += skating(ref.slice(keep.start, keep.stop)) * k
+                sums["skating_before"] += motion_skating(raw.slice(keep.start, keep.stop)) * k
+                sums["skating_after"] += motion_skating(cleaned.slice(keep.start, keep.stop)) * k
+                sums["skating_content"] += motion_skating(ref.slice(keep.start, keep.stop)) * k
                 k0, k1 = take.source_frames(c, d)
                 if k1 > k0:
                     per = CANONICAL.fps / frames.fps

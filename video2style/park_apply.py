@@ -16,14 +16,10 @@ import torch
 from motioncore.ik_fit import decode_via_positions
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
-from video2style.pipeline import (
-    Clip,
-    cleanup_feet_measured,
-    read_clip,
-    skating,
-    weights_path,
-    write_outputs,
-)
+from motioncore.skating import motion_skating
+from transfer.apply import cleanup_feet_measured
+from transfer.shipped import weights_path
+from video2style.pipeline import Clip, read_clip, write_outputs
 
 
 @lru_cache(maxsize=2)
@@ -124,7 +120,7 @@ def apply_park_file(model, path: Path, out_dir: Path, request: ParkRequest, join
     results = stylize_clip(model, clip, codes, foot_ratios=ratios)
     info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
             "skating_before": max(r["skating_before"] for r in ratios), "skating_after": max(r["skating_after"] for r in ratios),
-            "skating_content": skating(clip.canonical)}
+            "skating_content": motion_skating(clip.canonical)}
     info.update(write_outputs(clip, results, Path(out_dir), preview=preview))
     info["seconds"] = time.time() - t0
     return info

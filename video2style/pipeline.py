@@ -4,7 +4,6 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import torch
@@ -14,55 +13,13 @@ from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
+from transfer.apply import stylize_motion
+from transfer.bundle import load_models
 from transfer.shipped import weights_path
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
 BVH_SUFFIX = ".bvh"
 MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
-
-
-@dataclass
-class Models:
-    prior: torch.nn.Module
-    mean: torch.Tensor
-    std: torch.Tensor
-    motion_encoder: torch.nn.Module
-    text_encoder: object
-    prior_path: Path
-
-
-PRIOR_FILE = "denoiser.safetensors"
-ENCODER_FILE = "motion_encoder.safetensors"
-
-
-def load_models(device: str | torch.device = "cpu") -> Models:
-    """The shipped prior and motion encoder on ``device`` (``auto``, ``cpu``, ``cuda``: see
-    :func:`transfer.device.resolve_device`), loaded once per process and device. ``mean``/``std`` and the
-    text encoder's embeddings stay on the CPU, beside the motion code."""
-    from transfer.device import resolve_device
-
-    return _models_on(str(resolve_device(device)))
-
-
-@lru_cache(maxsize=2)
-def _models_on(device: str) -> Models:
-    return load_models_from(weights_path(PRIOR_FILE), weights_path(ENCODER_FILE), device)
-
-
-def load_models_from(prior_path: Path, encoder_path: Path, device: str | torch.device = "cpu") -> Models:
-    """A prior and motion encoder from given files (e.g. the unseen-style protocol's development weights)."""
-    from transfer.device import resolve_device
-    from transfer.motion_encoder import load_motion_encoder
-    from transfer.prior import load_prior
-    from transfer.text_encoder import default_text_encoder
-
-    for path in (prior_path, encoder_path):
-        if not Path(path).is_file():
-            raise FileNotFoundError(f"{path}: no such weights file")
-    device = resolve_device(device)
-    prior, mean, std = load_prior(prior_path)
-    encoder = load_motion_encoder(encoder_path)
-    return Models(prior.to(device), mean, std, encoder.to(device), default_text_encoder(), Path(prior_path))
 
 
 def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5,
@@ -73,14 +30,12 @@ def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: i
     channels do (docs/RESULTS.md, the prior's gait); else decoded from the rotation channels."""
     from motioncore.ik_fit import decode_via_positions
     from transfer.sampling import generate
-    from transfer.scheduler import DiffusionScheduler
 
     m = load_models(device)
     gen = torch.Generator().manual_seed(seed)
-    x = generate(m.prior, DiffusionScheduler(m.prior.config.num_train_steps), m.text_encoder.encode(captions), frames,
-                 steps, guidance, gen).cpu()
+    x = generate(m.prior, m.scheduler, m.text_encoder.encode(captions), frames, steps, guidance, gen).cpu()
     to_motion = (lambda f: decode_via_positions(f, CANONICAL.fps)) if from_positions else decode
-    return [place_on_floor(to_motion(f * m.std + m.mean)) for f in x]
+    return [place_on_floor(to_motion(m.denormalize(f))) for f in x]
 
 
 @dataclass
@@ -218,7 +173,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
                config=None, joint_map: dict | None = None, progress=print, *, allow_partial: bool = False,
                span: tuple[float | None, float | None] = (None, None), show_bar: bool = False,
                device: str = "cpu", rotate: int | None = None, apply_config=None) -> dict:
-    """Learn a style from a video or BVH on ``device`` (:func:`load_models`) and save it to ``out_path``;
+    """Learn a style from a video or BVH on ``device`` (:func:`transfer.bundle.load_models`) and save it to ``out_path``;
     returns a summary. The noise is drawn on the CPU whatever the device, so a GPU's style differs from the
     CPU's only by the GPU's arithmetic (and its dropout draws).
 
@@ -233,6 +188,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     from transfer.apply import read_motion
     from transfer.learn import learn_style, partial_reason
     from transfer.style_config import LearnConfig
+    from transfer.style_file import file_sha256
+    from transfer.tempo import style_tempo
 
     t0 = time.time()
     config = config or LearnConfig()
@@ -243,7 +200,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
     m = load_models(device)
-    features = encode(clip.canonical).sub_(m.mean).div_(m.std)  # normalised in place: a long take's features once
+    features = m.normalize(encode(clip.canonical), inplace=True)  # in place: a long take's features once
     bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
     canonical, used = example_part(clip.canonical, features, (span[0] or 0.0) if bvh else 0.0)
     del features
@@ -251,7 +208,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         where = "of the input" if bvh else "from where the person was first tracked"
         progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s {where} ({clip.canonical.duration:.0f} s read): "
                  f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
-    example = (encode(canonical) - m.mean) / m.std
+    example = m.normalize(encode(canonical))
     if text is None:
         reading = read_motion(m.motion_encoder, m.text_encoder, example)
         text = reading.content
@@ -261,10 +218,9 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
     progress("[3/4] learning")
-    style, _ = learn_style(m.prior, m.motion_encoder, m.text_encoder, dataset, example, style_words, text, config,
-                           m.prior_path, progress=lambda s: progress(f"      {s}"), show_bar=show_bar,
-                           apply=apply_config)
-    tempo = style_tempo(canonical, text, dataset, m.mean, m.std)
+    style, _ = learn_style(m, dataset, example, style_words, text, config, progress=lambda s: progress(f"      {s}"),
+                           show_bar=show_bar, apply=apply_config)
+    tempo = style_tempo(canonical, text, dataset, m)
     if tempo is not None:
         progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
     partial = partial_reason(style.meta)
@@ -272,6 +228,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         raise PartialStyleError(f"{path}: {partial}; nothing written (give more time or iterations, "
                                 "or --allow-partial to keep it)")
     style.example = encode(canonical)
+    # the prior it was learned on, for transfer.bundle.base_model_warning
+    style.meta["base_model_sha256"] = file_sha256(m.prior_path) if m.prior_path else None
     style.meta.update({"source": Path(path).name, "example_seconds": round(canonical.duration, 2),
                        "span": list(span), "example_part": [round(t, 2) for t in used], "partial": partial,
                        "tempo": tempo})
@@ -313,77 +271,14 @@ def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0)
     return part, (offset + start / canonical.fps, offset + (start + length) / canonical.fps)
 
 
-LOCOMOTION = ("walk", "walk-turn-left", "walk-turn-right", "run")  # contents whose speed a style may change
-TEMPO_RANGE = (0.5, 1.5)
-
-
-def style_tempo(example: Motion, content: str, data, mean: torch.Tensor, std: torch.Tensor) -> float | None:
-    """How fast the style example moves next to neutral clips of its content (median root speed of the
-    content's "normal" clips in ``data``), clipped to :data:`TEMPO_RANGE`; None when the content is not
-    locomotion or there are no such clips."""
-    from motioncore.motion import root_speed
-    from motioncore.representation import decode
-
-    if content not in LOCOMOTION:
-        return None
-    idx = [i for i, r in enumerate(data.records) if r.style == "normal" and r.content == content][:50]
-    speeds = sorted(root_speed(decode(data.clip(i) * std + mean)) for i in idx)
-    if not speeds or speeds[len(speeds) // 2] <= 0.05:
-        return None
-    ratio = root_speed(example) / speeds[len(speeds) // 2]
-    return float(min(max(ratio, TEMPO_RANGE[0]), TEMPO_RANGE[1]))
-
-
-def resolve_tempo(style, tempo: str | float) -> float:
-    """``--tempo``: "off" -> 1, "auto" -> the style's measured tempo (1 when it has none), or a number."""
-    if tempo == "off":
-        return 1.0
-    if tempo == "auto":
-        value = style.meta.get("tempo")
-        return float(value) if isinstance(value, (int, float)) and TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1] else 1.0
-    try:
-        value = float(tempo)
-    except ValueError:
-        value = float("nan")  # refused below, with the option's name
-    if not TEMPO_RANGE[0] <= value <= TEMPO_RANGE[1]:
-        raise ValueError(f"--tempo: expected off, auto or a number from {TEMPO_RANGE[0]} to {TEMPO_RANGE[1]}, got {tempo}")
-    return value
-
-
-def stylize_motion(style, model, content: Motion, strength: float = 0.5, seed: int = 0,
-                   neutralize: str = "auto") -> tuple[Motion, dict]:
-    """Apply a loaded style (``model`` = prior + adapters) to a canonical motion; stray limbs drawn back
-    (``limb_guard`` of the style's config, :func:`transfer.apply.guard_stray_limbs`); feet cleaned against the content.
-
-    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``: auto
-    (only when the motion encoder reads a styled clip confidently), always or never.
-    Returns the result and what was decided (``detected``, ``neutralized``) with the foot-skating ratios
-    before and after cleanup and of the content itself. Runs on ``model``'s device (the prior is loaded there too); the result is on the CPU.
-    """
-    from transfer.apply import apply_style_motion, neutral_caption
-    from transfer.device import model_device
-    from transfer.style_config import strength_settings
-
-    m = load_models(model_device(model))
-    learned, config = style.configs()
-    step, config = strength_settings(strength, learned, config)
-    neutral_text, detected = None, None
-    if neutralize != "never":
-        reading, neutral_text = neutral_caption(m.motion_encoder, m.text_encoder, (encode(content) - m.mean) / m.std,
-                                                neutralize)
-        detected = reading.describe()
-    raw = apply_style_motion(model, m.prior, content, m.mean, m.std, learned, config, step, seed, neutral_text, clean=False,
-                             example=style.example)  # stray limbs drawn back (config.limb_guard), before the feet
-    result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
-    return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
-                    "skating_content": skating(content)}
-
-
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
                joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
-    """:func:`stylize_motion` on one BVH; writes ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview).
-    ``tempo`` (see :func:`resolve_tempo`): the clip is first time-warped to play this many times as fast
-    (0.7: slower, more frames; the path is the same)."""
+    """:func:`transfer.apply.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
+    ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview). ``tempo`` (see :func:`transfer.tempo.resolve_tempo`):
+    the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same)."""
+    from transfer.device import model_device
+    from transfer.tempo import resolve_tempo
+
     t0 = time.time()
     speed = resolve_tempo(style, tempo)
     from video2style.long_takes import LONG_TAKE_SECONDS, apply_long_bvh, is_long_take
@@ -392,7 +287,8 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
         return apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
     clip = warp_clip(read_clip(path, joint_map), speed)
-    result, decided = stylize_motion(style, model, clip.canonical, strength, seed, neutralize)
+    result, decided = stylize_motion(load_models(model_device(model)), style, model, clip.canonical, strength, seed,
+                                     neutralize)
     decided["tempo"] = speed
     ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
@@ -403,40 +299,6 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
-
-
-@lru_cache(maxsize=4)
-def _sha256(path: Path) -> str:
-    from transfer.style_file import file_sha256
-
-    return file_sha256(path)
-
-
-def base_model_warning(style, source: Path) -> str | None:
-    """A one-line warning when ``style`` was learned on another prior than the installed one, else None."""
-    learned_on = style.meta.get("base_model_sha256")
-    if learned_on is None:
-        return None
-    installed = _sha256(weights_path(PRIOR_FILE))  # the file load_models reads; no model is loaded for this
-    if learned_on == installed:
-        return None
-    return (f"warning: {source}: learned on another prior (sha256 {learned_on[:12]}…, installed "
-            f"{installed[:12]}…); results may differ from where it was made")
-
-
-def skating(motion: Motion) -> float:
-    """Foot-skating ratio of a canonical motion (:func:`evaluation.metrics.foot_skating_ratio`)."""
-    from evaluation.metrics import foot_skating_ratio
-
-    return foot_skating_ratio(motion.global_positions(), motion.fps)
-
-
-def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict]:
-    """IK foot cleanup against the content's contacts; returns the motion and the foot-skating ratio before/after."""
-    from motioncore.cleanup import cleanup_feet
-
-    cleaned = cleanup_feet(motion, reference=content)
-    return cleaned, {"skating_before": skating(motion), "skating_after": skating(cleaned)}
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),

@@ -1,0 +1,43 @@
+"""The method's models in one bundle (transfer.bundle): the normalisation its code uses everywhere, and loading."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch
+
+from motioncore.representation import FEATURES
+from tests.test_style import tiny_denoiser
+from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
+from transfer.shipped import weights_path
+
+
+def test_the_bundle_normalises_as_the_hand_written_formulas_did_and_builds_its_scheduler():
+    g = torch.Generator().manual_seed(0)
+    mean, std = torch.randn(FEATURES.dim, generator=g), torch.rand(FEATURES.dim, generator=g) + 0.1
+    bundle = MethodBundle(tiny_denoiser(), mean, std)
+    x = torch.randn(30, FEATURES.dim, generator=g)
+    assert torch.equal(bundle.normalize(x), (x - mean) / std)  # bit for bit: no behaviour moves with the code
+    assert torch.equal(bundle.denormalize(x), x * std + mean)
+    y = x.clone()
+    assert bundle.normalize(y, inplace=True) is y and torch.equal(y, (x - mean) / std)
+    assert bundle.denormalize(y, inplace=True) is y and torch.allclose(y, x, atol=1e-5)
+    assert bundle.scheduler.num_train_steps == bundle.prior.config.num_train_steps
+
+
+def test_from_pretrained_names_a_missing_weights_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match=PRIOR_FILE):
+        MethodBundle.from_pretrained(tmp_path)
+    with pytest.raises(FileNotFoundError, match="nothing.safetensors"):
+        MethodBundle.from_pretrained((weights_path(PRIOR_FILE), tmp_path / "nothing.safetensors"))
+
+
+@pytest.mark.skipif(not weights_path(PRIOR_FILE).is_file(), reason="shipped weights not present")
+def test_a_folder_and_its_two_files_load_the_same_bundle_as_the_shipped_one():
+    shipped = load_models()
+    assert load_models("cpu") is shipped  # once per process and device
+    folder = MethodBundle.from_pretrained(Path(weights_path(PRIOR_FILE)).parent)
+    files = MethodBundle.from_pretrained((weights_path(PRIOR_FILE), weights_path(ENCODER_FILE)))
+    for b in (folder, files):
+        assert b.prior_path == shipped.prior_path and torch.equal(b.mean, shipped.mean) and torch.equal(b.std, shipped.std)
+        assert all(torch.equal(p, q) for p, q in zip(b.prior.state_dict().values(), shipped.prior.state_dict().values()))
