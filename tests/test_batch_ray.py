@@ -12,7 +12,7 @@ import pytest
 
 ray = pytest.importorskip("ray", reason='Ray is not installed (pip install "video2style[ray]")')
 
-SAMPLES = Path(__file__).resolve().parents[1] / "video2style" / "samples"
+SAMPLES = Path(__file__).resolve().parents[1] / "samples"
 
 
 def _kill_an_apply_worker(stop: threading.Event, killed: list) -> None:

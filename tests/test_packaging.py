@@ -17,10 +17,12 @@ def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
     names = set(zipfile.ZipFile(wheel).namelist())
     for need in ("transfer/weights/denoiser.safetensors", "transfer/weights/motion_encoder.safetensors",
                  "transfer/weights/captions.safetensors", "transfer/weights/park_stylizer.safetensors",
+                 *(f"video2style/samples/{p.name}" for p in (ROOT / "samples").iterdir() if p.suffix in (".bvh", ".mp4")),
                  "video2style/samples/elderly.mp4", "video2style/samples/walk_prior.bvh", "video2style/cli.py",
                  "motioncore/humanoid/__init__.py", "motioncore/humanoid/limbs.py", "video2style/blender_io.py", "lifting/lift.py", "lifting/reconstruct.py", "evaluation/protocol.py",
                  "park/infer.py", "park/graph.py"):
         assert need in names, need
+    assert not any(n.startswith("samples/") for n in names)  # the top-level samples/ installs as video2style/samples/
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     assert "video2style = video2style.cli:console_main" in zipfile.ZipFile(wheel).read(entry).decode()
     # installed somewhere else, the package finds its own samples and weights

@@ -1,4 +1,4 @@
-"""``video2style demo``: the whole job on the project-made inputs in ``video2style/samples/``.
+"""``video2style demo``: the whole job on the project-made inputs in ``samples/`` (installed as ``video2style.samples``).
 
 1. ``pose``: each sample video -> BVH + a preview of the landmarks beside the fitted skeleton;
 2. ``batch``: learn each video's style (the file name gives the style words) and apply it to every
@@ -6,9 +6,11 @@
 """
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 
-SAMPLES = Path(__file__).resolve().parent / "samples"  # package data: there after a plain `pip install .` too
+# the repository's samples/, package data of video2style.samples (setup.py): found in a wheel and an editable install
+SAMPLES = Path(str(files("video2style.samples")))
 
 
 def sample_clips() -> list[Path]:
@@ -16,7 +18,7 @@ def sample_clips() -> list[Path]:
 
     clips = find_bvh_files(SAMPLES, recursive=False)
     if not clips:
-        raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python video2style/samples/make_samples.py)")
+        raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python samples/make_samples.py)")
     return clips
 
 
@@ -36,7 +38,7 @@ def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
 
     clips, videos = find_bvh_files(samples, recursive=False), find_videos(samples)
     if not clips or not videos:
-        raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python video2style/samples/make_samples.py)")
+        raise FileNotFoundError(f"{samples}: expected sample .bvh clips and videos (run python samples/make_samples.py)")
     check_outputs([("-o", out_dir / "pose" / f"{v.stem}{end}") for v in videos for end in (".bvh", "_pose.mp4")],
                   [("the sample", p) for p in clips + videos])
     check_batch_outputs(samples, samples, out_dir, list(video_keys(videos).values()))

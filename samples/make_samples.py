@@ -1,8 +1,8 @@
 """Regenerate the project-made demo inputs in this folder (no external data; needs the shipped prior).
 
-    python video2style/samples/make_samples.py                 # content clips + the style video
-    python video2style/samples/make_samples.py --seed 3        # other draws (default 2)
-    python video2style/samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
+    python samples/make_samples.py                 # content clips + the style video
+    python samples/make_samples.py --seed 3        # other draws (default 2)
+    python samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
 
 Content clips are text-to-motion samples of the project's diffusion prior (neutral style), their rotations
 fitted to the samples' joint-position channels (the prior places feet better there; ``--from-rotations``
@@ -77,7 +77,7 @@ def write_content_bank(per_content: int = 4, length: int = 80, steps: int = 50, 
     n = make_content_bank(models.prior, models.text_encoder, path, per_content, length, steps, guidance, seed)
     card = {
         "model": "video2style content bank: neutral content motions for style learning when no dataset cache is installed",
-        "made_by": f"python video2style/samples/make_samples.py --content-bank: transfer.content_bank.make_content_bank "
+        "made_by": f"python samples/make_samples.py --content-bank: transfer.content_bank.make_content_bank "
                    f"with the shipped denoiser.safetensors ({steps} DDIM steps, guidance {guidance}, seed {seed})",
         "contents": f"{per_content} samples x 10 Bandai-2 contents ({n} clips), {length} frames each, normalised "
                     "features, float16",
