@@ -41,7 +41,7 @@ def toys(tmp_path_factory):
 
 
 def _config(**kw):
-    return LearnConfig(iterations=4, pair_steps=3, transfer_steps=2, content_batch=2, window=24, **kw)
+    return LearnConfig(iterations=4, pair_ddim_steps=3, transfer_ddim_steps=2, content_batch=2, window=24, **kw)
 
 
 def test_learn_style_trains_only_adapters_and_records_metadata(toys):

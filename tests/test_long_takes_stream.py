@@ -121,7 +121,7 @@ def style_and_model(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("VIDEO2STYLE_DATA", str(out.parent / "no-cache"))  # the bundled content bank
     try:
-        learn_file(SAMPLES / "walk_prior.bvh", out, "s", None, LearnConfig(iterations=2, pair_steps=3),
+        learn_file(SAMPLES / "walk_prior.bvh", out, "s", None, LearnConfig(iterations=2, pair_ddim_steps=3),
                    progress=lambda s: None, allow_partial=True)
     finally:
         mp.undo()

@@ -28,7 +28,7 @@ def one_thread():
 def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))  # use the bundled content bank
     lines = []
-    config = LearnConfig(iterations=2, pair_steps=3)
+    config = LearnConfig(iterations=2, pair_ddim_steps=3)
     with pytest.raises(PartialStyleError, match="only 2 fine-tuning iterations"):  # too few to show: refused
         learn_file(SAMPLES / "walk_prior.bvh", tmp_path / "old.v2s", "old", None, config, progress=lines.append)
     assert not (tmp_path / "old.v2s").exists()

@@ -22,7 +22,7 @@ def _write(path, meta, tensors):
 def good():
     style = _trained_style(tiny_denoiser())
     meta = {"style": "old", "content": "a person walks", "rank": 8, "iterations": 40,
-            "config": {"rank": 8, "transfer_step": 300, "max_seconds": None, "apply_mode": "difference"}}
+            "config": {"rank": 8, "transfer_noise_step": 300, "max_seconds": None, "apply_mode": "difference"}}
     tensors = {k: v.half() for k, v in style.adapters.items()}
     tensors["example"] = torch.zeros(30, FEATURES.dim)
     return meta, tensors
@@ -36,8 +36,8 @@ def test_a_valid_file_loads(tmp_path, good):
 @pytest.mark.parametrize("change, field", [
     (lambda m, t: m["config"].update(bogus=1), "unknown field"),
     (lambda m, t: m.update(config=[1, 2]), "config: expected an object"),
-    (lambda m, t: m["config"].update(transfer_step=0), "config.transfer_step"),
-    (lambda m, t: m["config"].update(pair_step=1_000_000), "config.pair_step"),
+    (lambda m, t: m["config"].update(transfer_noise_step=0), "config.transfer_noise_step"),
+    (lambda m, t: m["config"].update(pair_noise_step=1_000_000), "config.pair_noise_step"),
     (lambda m, t: m["config"].update(apply_mode="rm -rf"), "config.apply_mode"),
     (lambda m, t: m["config"].update(style_scale=float("nan")), "config.style_scale"),
     (lambda m, t: m.update(rank=[8]), "rank: expected an integer"),
@@ -115,12 +115,29 @@ CONFIG_BEFORE_THE_SPLIT = {
 
 
 def test_a_style_file_from_before_the_config_split_loads_and_learn_writes_the_same_keys(tmp_path, good):
-    from transfer.style_config import config_dict
+    from transfer.style_config import OLD_NAMES, config_dict
 
     meta, tensors = good
     meta["config"] = dict(CONFIG_BEFORE_THE_SPLIT, style_scale=1.1, lambda_p=0.5, limb_guard=0.0)
     learned, applied = Style.load(_write(tmp_path / "old.v2s", meta, tensors)).configs()
     assert (learned.lambda_p, applied.style_scale, applied.limb_guard) == (0.5, 1.1, 0.0)
-    assert json.dumps(config_dict(learned, applied)) == json.dumps(meta["config"])  # the same JSON, key for key
+    assert (learned.pair_noise_step, learned.pair_ddim_steps, learned.transfer_noise_step, learned.transfer_ddim_steps) \
+        == (950, 30, 300, 6)
+    # the same JSON, key for key, but for the step fields' new names (OLD_NAMES), in their places
+    renamed = {OLD_NAMES.get(k, k): v for k, v in meta["config"].items()}
+    assert json.dumps(config_dict(learned, applied)) == json.dumps(renamed)
     partial = Style.load(_write(tmp_path / "partial.v2s", good[0] | {"config": {"decode": "rotations"}}, tensors))
-    assert partial.configs()[1].decode == "rotations" and partial.configs()[0].transfer_step == 300  # defaults
+    assert partial.configs()[1].decode == "rotations" and partial.configs()[0].transfer_noise_step == 300  # defaults
+
+
+def test_a_style_file_with_the_old_step_names_loads_under_the_new_ones(tmp_path, good):
+    meta, tensors = good
+    old = dict(meta, config={"pair_step": 600, "pair_steps": 20, "transfer_step": 150, "transfer_steps": 3})
+    learned, _ = Style.load(_write(tmp_path / "old.v2s", old, tensors)).configs()
+    assert (learned.pair_noise_step, learned.pair_ddim_steps, learned.transfer_noise_step, learned.transfer_ddim_steps) \
+        == (600, 20, 150, 3)
+    with pytest.raises(ValueError, match="old.v2s: invalid style file: config.transfer_noise_step: expected a number"):
+        Style.load(_write(tmp_path / "old.v2s", dict(meta, config={"transfer_step": 0}), tensors))
+    both = dict(meta, config={"transfer_step": 300, "transfer_noise_step": 300})
+    with pytest.raises(ValueError, match="invalid style file: config: transfer_step and transfer_noise_step are the same"):
+        Style.load(_write(tmp_path / "both.v2s", both, tensors))

@@ -115,12 +115,12 @@ def test_every_seed_option_is_checked_while_parsing(tmp_path, capsys):
 # 2. What a style file may make apply cost is bounded.
 
 @pytest.mark.parametrize("config, field", [
-    ({"transfer_steps": 200}, "config.transfer_steps"),
+    ({"transfer_ddim_steps": 200}, "config.transfer_ddim_steps"),
     ({"window": 2000}, "config.window"),
-    ({"pair_steps": 200}, "config.pair_steps"),
-    ({"transfer_step": 1, "apply_mode": "regenerate"}, "denoising steps per window"),  # 6 x 600 / 1 steps
-    ({"pair_step": 1}, "denoising steps per window"),  # neutralising: 30 x 950 / 1 steps
-    ({"transfer_steps": 50, "transfer_step": 200, "apply_mode": "regenerate"}, "denoising steps per window"),
+    ({"pair_ddim_steps": 200}, "config.pair_ddim_steps"),
+    ({"transfer_noise_step": 1, "apply_mode": "regenerate"}, "denoising steps per window"),  # 6 x 600 / 1 steps
+    ({"pair_noise_step": 1}, "denoising steps per window"),  # neutralising: 30 x 950 / 1 steps
+    ({"transfer_ddim_steps": 50, "transfer_noise_step": 200, "apply_mode": "regenerate"}, "denoising steps per window"),
 ])
 def test_a_style_config_that_would_make_apply_slow_is_refused(config, field):
     with pytest.raises(ValueError, match=field):

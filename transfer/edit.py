@@ -17,10 +17,10 @@ TRAJECTORY = [FEATURES.root_rvel, FEATURES.root_lvel]  # inpainted: the root's p
 def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torch.Tensor, config: LearnConfig,
                generator: torch.Generator, step: int | None = None) -> torch.Tensor:
     """Neutral version ``(B, T, D)`` of normalised motions ``x (B, T, D)``, same path, text ``(B, E)``;
-    noised to ``step`` (default G, ``config.pair_step``) and denoised with the text. ``x`` and ``text`` are on
+    noised to ``step`` (default G, ``config.pair_noise_step``) and denoised with the text. ``x`` and ``text`` are on
     the prior's device; the noise is drawn on the CPU from ``generator`` and moved there."""
-    g = config.pair_step if step is None else step
-    n_steps = max(1, round(config.pair_steps * g / config.pair_step))
+    g = config.pair_noise_step if step is None else step
+    n_steps = max(1, round(config.pair_ddim_steps * g / config.pair_noise_step))
     noise = torch.randn(x.shape, generator=generator).to(x.device)
     x_g = noise_keeping(scheduler, x, noise, g, TRAJECTORY)
     return denoise(prior, scheduler, x_g, g, n_steps, text, guidance=config.guidance,
@@ -46,19 +46,19 @@ class StyleGuided(torch.nn.Module):
 def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
             generator: torch.Generator, step: int | None = None, prior=None) -> torch.Tensor:
     """Apply the style model to normalised content ``x (B, T, D)``: noise it K steps (default the style's
-    ``learned.transfer_step``), denoise keeping its path, at the style's density of DDIM steps (``learned.transfer_steps``
-    per ``learned.transfer_step``). Returns ``(B, T, D)``.
+    ``learned.transfer_noise_step``), denoise keeping its path, at the style's density of DDIM steps (``learned.transfer_ddim_steps``
+    per ``learned.transfer_noise_step``). Returns ``(B, T, D)``.
 
     ``config.apply_mode`` "difference" (needs ``prior``): ``x + scale * (style(y) - prior(y))`` from the same
     noisy ``y``; "regenerate": the style model's own result, guided with weight ``scale`` when a prior is given.
     ``scale`` is ``config.style_scale`` (see :func:`transfer.style_config.strength_settings`). ``x`` is on the
     models' device; the noise is drawn on the CPU from ``generator`` and moved there.
     """
-    k = learned.transfer_step if step is None else step
+    k = learned.transfer_noise_step if step is None else step
     scale = config.style_scale
     noise = torch.randn(x.shape, generator=generator).to(x.device)
     y = noise_keeping(scheduler, x, noise, k, TRAJECTORY)
-    n_steps = max(1, round(learned.transfer_steps * k / learned.transfer_step))
+    n_steps = max(1, round(learned.transfer_ddim_steps * k / learned.transfer_noise_step))
     if config.apply_mode == "difference":
         if prior is None:
             raise ValueError("stylize: the difference mode needs the prior")

@@ -100,7 +100,7 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         with torch.no_grad():
             z_ex, z_pair = motion_encoder(torch.stack([example, pair]))
         direction = z_ex - z_pair
-    steps = scheduler.set_timesteps(config.transfer_steps, config.transfer_step).tolist()
+    steps = scheduler.set_timesteps(config.transfer_ddim_steps, config.transfer_noise_step).tolist()
     history = []
     it, stopped_by = 0, "iterations"
     bar = tqdm(total=config.iterations, desc="      fine-tuning", unit="it", disable=not show_bar, leave=False)
@@ -190,13 +190,13 @@ def reconstruction_loss(model, scheduler: DiffusionScheduler, m_n: torch.Tensor,
     """
     if m_n.ndim != 3 or m_n.shape != m_s.shape:
         raise ValueError(f"reconstruction_loss: expected m_n and m_s (B, L, D) alike, got {tuple(m_n.shape)} and {tuple(m_s.shape)}")
-    k = config.transfer_step
-    steps = scheduler.set_timesteps(config.transfer_steps, k).tolist()
+    k = config.transfer_noise_step
+    steps = scheduler.set_timesteps(config.transfer_ddim_steps, k).tolist()
     y = noise_keeping(scheduler, m_n, torch.randn(m_n.shape, generator=generator).to(m_n.device), k, TRAJECTORY)
     training = model.training
     model.eval()
     with torch.no_grad():  # the inputs of the steps only: the last step's prediction is never made
-        unroll = denoising_steps(model, scheduler, y, k, config.transfer_steps, inpaint=(m_s, TRAJECTORY))
+        unroll = denoising_steps(model, scheduler, y, k, config.transfer_ddim_steps, inpaint=(m_s, TRAJECTORY))
         inputs = [x_t for _, x_t in itertools.islice(unroll, len(steps))]
     model.train(training)
     target = m_s.repeat(len(steps), 1, 1)  # torch.cat(inputs) is step-major: B windows per step

@@ -18,11 +18,11 @@ MAX_ITERATIONS = 10_000  # about 10 hours of learning on a 2-core CPU at 3.7 s p
 class LearnConfig:
     """How a style is learned (Hu et al. 2024 §3.2-3.5; ``transfer.learn.learn_style``)."""
 
-    pair_step: int = 950  # G
-    pair_steps: int = 30  # DDIM steps from G to 0 for the neutral pair
+    pair_noise_step: int = 950  # G: the noise step the neutral pair is drawn from
+    pair_ddim_steps: int = 30  # the number of DDIM steps from G to 0 for the neutral pair
     guidance: float = 2.5
-    transfer_step: int = 300  # K
-    transfer_steps: int = 6  # DDIM steps from K to 0 (K = 300 with 20 steps over 1000)
+    transfer_noise_step: int = 300  # K: the noise step the content is edited from
+    transfer_ddim_steps: int = 6  # the number of DDIM steps from K to 0 (K = 300 with 20 steps over 1000)
     rank: int = 8
     lr: float = 2e-3
     iterations: int = 40  # the budget (chosen on the val split, docs/RESULTS.md): same example + seed = same style
@@ -67,8 +67,8 @@ class ApplyConfig:
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
 # before the config was split in two, so files written since keep the same JSON)
 CONFIG_RANGES = {
-    "pair_step": (int, 1, 999), "pair_steps": (int, 1, 100), "guidance": (float, 0.0, 20.0),
-    "transfer_step": (int, 1, 999), "transfer_steps": (int, 1, 50), "rank": (int, 1, MAX_RANK),
+    "pair_noise_step": (int, 1, 999), "pair_ddim_steps": (int, 1, 100), "guidance": (float, 0.0, 20.0),
+    "transfer_noise_step": (int, 1, 999), "transfer_ddim_steps": (int, 1, 50), "rank": (int, 1, MAX_RANK),
     "lr": (float, 0.0, 1.0), "iterations": (int, 1, MAX_ITERATIONS), "max_seconds": (float, 0.0, 7 * 86400.0),
     "lambda_s": (float, 0.0, 100.0), "content_batch": (int, 1, 64), "window": (int, 8, 400), "rec_windows": (int, 1, 16),
     "seed": (int, -(2**63), 2**63 - 1), "pair_generation": (bool, None, None), "lambda_p": (float, 0.0, 100.0),
@@ -78,6 +78,10 @@ CONFIG_RANGES = {
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
     "limb_guard": (float, 0.0, 1.0),
 }
+# the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
+# by one letter): read under the new names (:func:`current_names`), written under the new ones
+OLD_NAMES = {"pair_step": "pair_noise_step", "pair_steps": "pair_ddim_steps",
+             "transfer_step": "transfer_noise_step", "transfer_steps": "transfer_ddim_steps"}
 LEARN_FIELDS = tuple(f.name for f in fields(LearnConfig))
 APPLY_FIELDS = tuple(f.name for f in fields(ApplyConfig))
 
@@ -86,6 +90,17 @@ def config_dict(learn: LearnConfig, apply: ApplyConfig) -> dict:
     """A style file's ``config`` object: both configs' fields, in :data:`CONFIG_RANGES`'s order."""
     values = {**asdict(learn), **asdict(apply)}
     return {name: values[name] for name in CONFIG_RANGES}
+
+
+def current_names(config: dict) -> dict:
+    """A style file's ``config`` object with the :data:`OLD_NAMES` of fields renamed, in place of order; the same
+    dict when it has none. A field under both its names: ValueError."""
+    if not any(k in OLD_NAMES for k in config):
+        return config
+    both = [k for k in OLD_NAMES if k in config and OLD_NAMES[k] in config]
+    if both:
+        raise ValueError(f"config: {both[0]} and {OLD_NAMES[both[0]]} are the same field, given twice")
+    return {OLD_NAMES.get(k, k): v for k, v in config.items()}
 
 
 def split_config(config: dict) -> tuple[LearnConfig, ApplyConfig]:
@@ -153,9 +168,9 @@ def strength_settings(strength: float | None, learn: LearnConfig, apply: ApplyCo
     0.5 -> the learned difference, 1 -> twice it).
     """
     if strength is None:
-        return learn.transfer_step, apply
+        return learn.transfer_noise_step, apply
     if apply.apply_mode == "difference":
         check_strength(strength)
-        return learn.transfer_step, replace(apply, style_scale=2.0 * strength * apply.style_scale)
+        return learn.transfer_noise_step, replace(apply, style_scale=2.0 * strength * apply.style_scale)
     return strength_to_step(strength), apply
 

@@ -28,6 +28,7 @@ from transfer.style_config import (
     ApplyConfig,
     LearnConfig,
     check_value,
+    current_names,
     split_config,
     strength_to_step,
 )
@@ -91,6 +92,8 @@ class Style:
         except Exception as e:  # noqa: BLE001 - safetensors raises its own errors on garbage (RecursionError included)
             raise ValueError(f"{path}: not a video2style style file ({' '.join(str(e).split())[:200]})") from None
         try:
+            if isinstance(meta, dict) and isinstance(meta.get("config"), dict):
+                meta["config"] = current_names(meta["config"])  # a file from before the step fields were renamed
             validate_style(meta, tensors)
         except ValueError as e:
             raise ValueError(f"{path}: invalid style file: {' '.join(str(e).split())}") from None  # one line, always
@@ -125,9 +128,9 @@ def apply_cost(config: dict) -> tuple[int, int]:
     """Denoising steps per window that a style's ``config`` (fields it lacks: the defaults) makes one apply
     take: ``(to stylise at the strongest --strength, to neutralise a styled clip)``."""
     c = {**asdict(LearnConfig()), **asdict(ApplyConfig()), **config}
-    k = c["transfer_step"] if c["apply_mode"] == "difference" else strength_to_step(1.0)
-    stylise = max(1, round(c["transfer_steps"] * k / c["transfer_step"]))
-    neutralise = max(1, round(c["pair_steps"] * c["neutralize_step"] / c["pair_step"])) if c["neutralize_step"] else 0
+    k = c["transfer_noise_step"] if c["apply_mode"] == "difference" else strength_to_step(1.0)
+    stylise = max(1, round(c["transfer_ddim_steps"] * k / c["transfer_noise_step"]))
+    neutralise = max(1, round(c["pair_ddim_steps"] * c["neutralize_step"] / c["pair_noise_step"])) if c["neutralize_step"] else 0
     return stylise, neutralise
 
 
@@ -144,7 +147,7 @@ def validate_config(config) -> dict:
     stylise, neutralise = apply_cost(config)
     if max(stylise, neutralise) > MAX_APPLY_STEPS:
         raise ValueError(f"config: apply would take {stylise} denoising steps per window to stylise and {neutralise} "
-                         f"to neutralise (transfer_steps x K / transfer_step, pair_steps x neutralize_step / pair_step); "
+                         f"to neutralise (transfer_ddim_steps x K / transfer_noise_step, pair_ddim_steps x neutralize_step / pair_noise_step); "
                          f"expected at most {MAX_APPLY_STEPS}")
     return config
 

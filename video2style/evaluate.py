@@ -90,9 +90,12 @@ class OnTheFly:
     def _model(self, style: torch.Tensor, style_label: str):
         from transfer.apply import read_motion
         from transfer.learn import learn_style
+        from transfer.style_config import OLD_NAMES
         from transfer.style_file import Style, style_model
 
-        learn_config = {k: v for k, v in asdict(self.learned).items() if k != "max_seconds"}
+        # keyed by the names the step fields had before (OLD_NAMES), so a --style-cache folder from before still serves
+        before = {new: old for old, new in OLD_NAMES.items()}
+        learn_config = {before.get(k, k): v for k, v in asdict(self.learned).items() if k != "max_seconds"}
         words = self.words or style_label
         key = "style" + _key(style, words, learn_config, str(getattr(self.m, "prior_path", "")))
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
@@ -119,7 +122,7 @@ class OnTheFly:
         from transfer.apply import neutral_caption, neutralize_features
 
         pair_config = {"neutralize_step": self.config.neutralize_step,
-                       **{k: getattr(self.learned, k) for k in ("pair_step", "pair_steps", "guidance")}}
+                       **{k: getattr(self.learned, k) for k in ("pair_noise_step", "pair_ddim_steps", "guidance")}}
         key = "neutral" + _key(content, pair_config, self.seed)
         if key not in self.shared:  # each content clip goes to six styles: neutralise it once
             _, text = neutral_caption(self.m.motion_encoder, self.m.text_encoder, content)

@@ -9,10 +9,10 @@ VARIANTS = {
     "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0, "decode": "rotations"},
     "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
-    "ours-k150": {"transfer_step": 150, "transfer_steps": 3},
-    "ours-k600": {"transfer_step": 600, "transfer_steps": 12},
+    "ours-k150": {"transfer_noise_step": 150, "transfer_ddim_steps": 3},
+    "ours-k600": {"transfer_noise_step": 600, "transfer_ddim_steps": 12},
     "ours-regen": {"apply_mode": "regenerate", "style_scale": 1.0},
-    "ours-diff-no-pp-k600": {"apply_mode": "difference", "lambda_p": 0.0, "transfer_step": 600, "transfer_steps": 12},
+    "ours-diff-no-pp-k600": {"apply_mode": "difference", "lambda_p": 0.0, "transfer_noise_step": 600, "transfer_ddim_steps": 12},
     "ours-guided": {"apply_mode": "regenerate", "style_scale": 2.0},
     "ours-diff-n600": {"apply_mode": "difference", "neutralize_step": 600},
     "ours-diff-n0": {"apply_mode": "difference", "neutralize_step": 0},
@@ -39,7 +39,7 @@ VARIANTS = {
     "ours-stat03n": {"lambda_stat": 0.3, "stat_reference": "neutral"},
     "ours-it150": {"iterations": 150},
     "ours-rotations": {"decode": "rotations", "style_scale": 0.9},  # the word-free default before the guarded decode
-    "ours-g600": {"pair_step": 600},  # the neutral pair drawn from step 600 instead of 950
+    "ours-g600": {"pair_noise_step": 600},  # the neutral pair drawn from step 600 instead of 950
     "ours-dir2-ls0": {"lambda_dir": 2.0, "lambda_s": 0.0},
     "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
     "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
