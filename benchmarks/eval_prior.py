@@ -12,9 +12,105 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
 from pathlib import Path
 
 import torch
+
+from evaluation.metrics import frechet_distance
+from motioncore.render import Panel, render_video
+from motioncore.representation import decode, decode_positions
+from motioncore.skating import foot_skating_ratio
+from motioncore.skeleton import CANONICAL
+from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
+from transfer.dataset import MotionDataset
+from transfer.sampling import generate
+
+MAX_FRAMES = 160
+
+
+def _embed(encoder, clips: list[torch.Tensor]) -> torch.Tensor:
+    out = []
+    with torch.no_grad():
+        for x in clips:
+            out.append(encoder(x[None, :MAX_FRAMES])[0])
+    return torch.stack(out)
+
+
+def _recall(ranks: torch.Tensor, k: int) -> float:
+    return float((ranks < k).float().mean())
+
+
+def retrieval(encoder, text_encoder, data: MotionDataset, seed: int = 0, gallery: int = 32) -> dict:
+    idx = [i for i, r in enumerate(data.records) if r.dataset == "bandai2" and not r.mirrored]
+    z = _embed(encoder, [data.clip(i) for i in idx])
+    contents = [data.records[i].content for i in idx]
+    styles = [data.records[i].style for i in idx]
+    out = {"clips": len(idx)}
+    content_emb = text_encoder.encode([content_caption(c) for c in BANDAI2_CONTENTS])
+    truth = torch.tensor([BANDAI2_CONTENTS.index(c) for c in contents])
+    sims = z @ content_emb.T
+    ranks = (sims > sims.gather(1, truth[:, None])).sum(1)
+    out["m2t_content_R@1"], out["m2t_content_R@3"] = _recall(ranks, 1), _recall(ranks, 3)
+    pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
+    full_emb = text_encoder.encode([caption(c, s) for c, s in pairs])
+    truth = torch.tensor([pairs.index((c, s)) for c, s in zip(contents, styles)])
+    sims = z @ full_emb.T
+    ranks = (sims > sims.gather(1, truth[:, None])).sum(1)
+    out["m2t_full_R@1"], out["m2t_full_R@3"] = _recall(ranks, 1), _recall(ranks, 3)
+    # text -> motion: the query caption's clip among 31 clips of other contents
+    gen = torch.Generator().manual_seed(seed)
+    q_emb = text_encoder.encode([content_caption(c) for c in contents])
+    ranks = []
+    for a in range(len(idx)):
+        others = [b for b in range(len(idx)) if contents[b] != contents[a]]
+        pick = torch.randperm(len(others), generator=gen)[: gallery - 1].tolist()
+        g = torch.stack([z[a]] + [z[others[p]] for p in pick])
+        s = g @ q_emb[a]
+        ranks.append(int((s > s[0]).sum()))
+    ranks = torch.tensor(ranks)
+    out["t2m_content_R@1"], out["t2m_content_R@3"] = _recall(ranks, 1), _recall(ranks, 3)
+    return out
+
+
+def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: int = 80, steps: int = 50,
+                   guidance: float = 2.5, seed: int = 0, classifier=None) -> dict:
+    """Samples ``(length, D)`` of the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`) for every content x
+    style caption, against ``data``'s clips; ``classifier`` (the evaluation's content classifier) adds an FD on its
+    features."""
+    prior, encoder, text_encoder, denormalize = bundle.prior, bundle.motion_encoder, bundle.text_encoder, bundle.denormalize
+    gen = torch.Generator().manual_seed(seed)
+    pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
+    t0 = time.time()
+    samples = []
+    for c, s in pairs:
+        x = generate(prior, bundle.scheduler, text_encoder.encode([caption(c, s)]), length, steps, guidance, gen)[0]
+        samples.append(x)
+    per_sample = (time.time() - t0) / len(pairs)
+    real_idx = [i for i, r in enumerate(data.records) if r.dataset == "bandai2" and not r.mirrored]
+    real = [data.clip(i)[:length] for i in real_idx]
+    fd = frechet_distance(_embed(encoder, samples).numpy(), _embed(encoder, real).numpy())
+    pos_samples = [decode_positions(denormalize(x)) for x in samples]
+    pos_real = [decode_positions(denormalize(x)) for x in real]
+    out = {"samples": len(samples), "seconds_per_sample": per_sample, "steps": steps, "guidance": guidance,
+           "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
+           "skating_real": foot_skating_ratio(pos_real)}
+    if classifier is not None:
+        from evaluation.classifiers import run_batched
+
+        def feats(xs):
+            return run_batched(classifier, [classifier.standardize(denormalize(x)) for x in xs], "features")
+
+        out["fd_classifier_features"] = frechet_distance(feats(samples), feats(real))
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        sk = CANONICAL.skeleton
+        for c in BANDAI2_CONTENTS:
+            panels = [Panel(decode(denormalize(samples[pairs.index((c, s))])).global_positions(), sk.parents, s, names=sk.names)
+                      for s in STYLES]
+            render_video(panels, out_dir / f"samples_{c}.mp4", CANONICAL.fps, size=(240, 240), progress=False)
+    return out
+
 
 
 def main() -> None:
@@ -31,9 +127,7 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from evaluation.classifiers import default_weights, load_classifier
-    from evaluation.prior_eval import retrieval, sample_quality
     from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
-    from transfer.dataset import MotionDataset
     from transfer.shipped import weights_path
 
     if not (args.data / "features.safetensors").is_file():
