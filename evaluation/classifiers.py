@@ -85,10 +85,6 @@ class MotionClassifier(nn.Module):
         self.head = nn.Linear(c_in, len(config.classes))
         self.drop = nn.Dropout(config.dropout)
 
-    @property
-    def feature_size(self) -> int:
-        return self.config.channels[-1]
-
     def standardize(self, raw: torch.Tensor) -> torch.Tensor:
         """Raw features ``(*, D)`` -> the model's input, on ``raw``'s device."""
         return (raw - self.mean.to(raw.device)) / self.std.to(raw.device)

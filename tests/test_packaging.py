@@ -29,8 +29,9 @@ def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],
                    check=True, cwd=tmp_path)
-    code = ("from video2style.demo import SAMPLES, sample_clips; from video2style.pipeline import weights_path; "
-            "print(SAMPLES); print(len(sample_clips())); print(weights_path('denoiser.safetensors'))")
+    code = ("from video2style.demo import SAMPLES; from video2style.pipeline import find_bvh_files, weights_path; "
+            "print(SAMPLES); print(len(find_bvh_files(SAMPLES, recursive=False))); "
+            "print(weights_path('denoiser.safetensors'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
                          env={"PYTHONPATH": str(target), "PATH": "/usr/bin:/bin"}).stdout.split()
     assert out[0].startswith(str(target)) and int(out[1]) >= 4 and out[2].startswith(str(target))

@@ -34,8 +34,6 @@ from mathutils import Euler, Quaternion, Vector
 if not hasattr(numpy, "bool"):  # Blender 3.4's glTF importer still says numpy.bool
     numpy.bool = bool
 
-SUFFIXES = (".fbx", ".glb", ".gltf")
-
 
 class JobError(Exception):
     """Said to the user in one line."""

@@ -13,15 +13,6 @@ from pathlib import Path
 SAMPLES = Path(str(files("video2style.samples")))
 
 
-def sample_clips() -> list[Path]:
-    from video2style.pipeline import find_bvh_files
-
-    clips = find_bvh_files(SAMPLES, recursive=False)
-    if not clips:
-        raise FileNotFoundError(f"{SAMPLES}: no sample clips (run python samples/make_samples.py)")
-    return clips
-
-
 def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
     """Runs pose and batch on ``samples``; returns the batch report (see :mod:`video2style.batch`)."""
     from video2style.batch import (
