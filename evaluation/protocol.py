@@ -8,7 +8,7 @@ random clip of the cell each time); each is transferred to every *other* style, 
 style (any content). Full: 9 per content x 6 other styles x 7 examples = 3780 transfers, Hu et
 al.'s count; ``quick``: 2 per content x 6 x 1 = 120.
 
-A method is ``transfer(content (T, D), style (T', D), style_label, content_label) -> (T, D)``,
+A method is ``transfer(content_feats (T, D), style_example (T', D), style_label, content_label) -> (T, D)``,
 features normalised with the cache's statistics. :func:`run_protocol` reports per method:
 
 - ``fmd``: Fréchet distance between the content classifier's pooled features of the 420 real
@@ -137,9 +137,10 @@ def select_protocol(records: Sequence[ClipRecord], quick: bool = False, seed: in
     return items
 
 
-def identity_transfer(content: torch.Tensor, style: torch.Tensor, style_label: str, content_label: str) -> torch.Tensor:
+def identity_transfer(content_feats: torch.Tensor, style_example: torch.Tensor, style_label: str,
+                      content_label: str) -> torch.Tensor:
     """Baseline: the content motion unchanged."""
-    return content
+    return content_feats
 
 
 def _check_output(name: str, out, content: torch.Tensor) -> torch.Tensor:

@@ -110,9 +110,10 @@ def park_method(model: ParkModel, seed: int = 0):
 
     ``seed`` seeds torch's global generator once per call; the reference path itself is deterministic.
     """
-    def transfer(content: torch.Tensor, style: torch.Tensor, style_label: str, content_label: str) -> torch.Tensor:
+    def transfer(content_feats: torch.Tensor, style_example: torch.Tensor, style_label: str,
+                 content_label: str) -> torch.Tensor:
         torch.manual_seed(seed)
-        return stylize_reference(model, content, style, style_label)
+        return stylize_reference(model, content_feats, style_example, style_label)
 
     return transfer
 

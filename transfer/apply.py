@@ -197,7 +197,7 @@ def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict
     return cleaned, {"skating_before": motion_skating(motion), "skating_after": motion_skating(cleaned)}
 
 
-def stylize_motion(bundle, style, model, content: Motion, strength: float = 0.5, seed: int = 0,
+def stylize_motion(bundle, style, model, content_motion: Motion, strength: float = 0.5, seed: int = 0,
                    neutralize: str = "auto") -> tuple[Motion, dict]:
     """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters,
     :func:`transfer.style_file.style_model`) to a canonical content motion (canonical fps; ``T`` frames) with the
@@ -214,15 +214,15 @@ def stylize_motion(bundle, style, model, content: Motion, strength: float = 0.5,
     neutral_text, detected = None, None
     if neutralize != "never":
         reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder,
-                                                bundle.normalize(encode(content)), neutralize)
+                                                bundle.normalize(encode(content_motion)), neutralize)
         detected = reading.describe()
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
-    out = apply_style_features(bundle, model, bundle.normalize(encode(content)), learned, config, strength, seed,
+    out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
                                neutral_text)
     out = bundle.denormalize(out, inplace=True)
-    p0 = content.global_positions()[:1].double()
-    raw = decoder(config, reference=content, example=style.example)(out, content.fps, start_yaw=float(facing_angle(p0)[0]),
+    p0 = content_motion.global_positions()[:1].double()
+    raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),
                                                                    start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
-    result, ratios = cleanup_feet_measured(raw, content)  # the content's own ratio: a slide it passes on
+    result, ratios = cleanup_feet_measured(raw, content_motion)  # the content's own ratio: a slide it passes on
     return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
-                    "skating_content": motion_skating(content)}
+                    "skating_content": motion_skating(content_motion)}

@@ -47,14 +47,14 @@ MIRROR_CONTENT = {
 MIRROR_CONTENT.update({v: k for k, v in list(MIRROR_CONTENT.items())})
 
 
-def content_caption(content: str) -> str:
+def content_caption(content_label: str) -> str:
     """``"walk" -> "a person walks"``."""
-    return f"a person {CONTENT_PHRASES.get(content, content.replace('-', ' '))}"
+    return f"a person {CONTENT_PHRASES.get(content_label, content_label.replace('-', ' '))}"
 
 
-def caption(content: str, style: str | None) -> str:
+def caption(content_label: str, style_label: str | None) -> str:
     """``("walk", "elderly") -> "a person walks, elderly style"``; neutral style adds nothing."""
-    base = content_caption(content)
-    if not style or style == NEUTRAL_STYLE:
+    base = content_caption(content_label)
+    if not style_label or style_label == NEUTRAL_STYLE:
         return base
-    return f"{base}, {style} style"
+    return f"{base}, {style_label} style"

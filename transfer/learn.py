@@ -42,11 +42,11 @@ def _random_window_starts(n: int, window: int, count: int, generator: torch.Gene
     return torch.randint(n - window + 1, (count,), generator=generator).tolist()
 
 
-def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, content: str, config: LearnConfig,
+def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, content_text: str, config: LearnConfig,
                 progress=None, show_bar: bool = False, apply: ApplyConfig | None = None) -> tuple[Style, dict]:
     """Learn a style on the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`: its prior, scheduler, motion
     and text encoders) from one normalised example
-    ``(T, D)`` whose content is ``content`` (a Bandai content name or free text). ``dataset``: the prior's training
+    ``(T, D)`` whose content is ``content_text`` (a Bandai content label or a caption). ``dataset``: the prior's training
     cache (content motions for the content losses). Returns the style and stats (``pair (T, D)``, ``history``).
 
     The budget is ``config.iterations``; with the same seed the adapters are the same on any machine, however
@@ -65,7 +65,7 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
     example = example.to(device)
     gen = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)
-    neutral_text = content if content.startswith("a person") else caption(content, None)
+    neutral_text = content_text if content_text.startswith("a person") else caption(content_text, None)
     say = progress or (lambda msg: None)
 
     if config.pair_generation:

@@ -9,14 +9,14 @@ LOCOMOTION = ("walk", "walk-turn-left", "walk-turn-right", "run")  # contents wh
 TEMPO_RANGE = (0.5, 1.5)
 
 
-def style_tempo(example: Motion, content: str, data, bundle) -> float | None:
-    """How fast the canonical style ``example`` moves next to neutral clips of its content (median root speed of
+def style_tempo(example: Motion, content_label: str, data, bundle) -> float | None:
+    """How fast the canonical style ``example`` moves next to neutral clips of its content, ``content_label`` (median root speed of
     the content's "normal" clips in ``data``, normalised as ``bundle``'s models read them:
     :class:`transfer.bundle.MethodBundle`), clipped to :data:`TEMPO_RANGE`; None when the content is not
     locomotion or there are no such clips."""
-    if content not in LOCOMOTION:
+    if content_label not in LOCOMOTION:
         return None
-    idx = [i for i, r in enumerate(data.records) if r.style == "normal" and r.content == content][:50]
+    idx = [i for i, r in enumerate(data.records) if r.style == "normal" and r.content == content_label][:50]
     speeds = sorted(root_speed(decode(bundle.denormalize(data.clip(i)))) for i in idx)
     if not speeds or speeds[len(speeds) // 2] <= 0.05:
         return None

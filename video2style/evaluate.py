@@ -47,10 +47,10 @@ def cleaned(features_fn, data, decoder_for=lambda content, example: decode):
     the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
     stray-limb guard included), foot cleanup and encoding again; normalised as the protocol's ``data``
     (:class:`transfer.dataset.MotionDataset`) is."""
-    def transfer(content, style, style_label, content_label):
-        out = features_fn(content, style, style_label, content_label)
-        content_m = decode(data.denormalize(content))
-        out_m = decoder_for(content_m, data.denormalize(style))(data.denormalize(out), content_m.fps)
+    def transfer(content_feats, style_example, style_label, content_label):
+        out = features_fn(content_feats, style_example, style_label, content_label)
+        content_m = decode(data.denormalize(content_feats))
+        out_m = decoder_for(content_m, data.denormalize(style_example))(data.denormalize(out), content_m.fps)
         return data.standardize(encode(cleanup_feet(out_m, reference=content_m)))
 
     return transfer
@@ -87,7 +87,7 @@ class OnTheFly:
         self._seen: set[str] = set()  # styles this variant used (for its row's learning numbers)
         self.progress = progress or (lambda s: None)
 
-    def _model(self, style: torch.Tensor, style_label: str):
+    def _model(self, style_example: torch.Tensor, style_label: str):
         from transfer.apply import read_motion
         from transfer.learn import learn_style
         from transfer.style_config import OLD_NAMES
@@ -97,19 +97,20 @@ class OnTheFly:
         before = {new: old for old, new in OLD_NAMES.items()}
         learn_config = {before.get(k, k): v for k, v in asdict(self.learned).items() if k != "max_seconds"}
         words = self.words or style_label
-        key = "style" + _key(style, words, learn_config, str(getattr(self.m, "prior_path", "")))
+        key = "style" + _key(style_example, words, learn_config, str(getattr(self.m, "prior_path", "")))
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
         if key not in self.shared and stored is not None and stored.is_file():
             learned = Style.load(stored)
             self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"])
         if key not in self.shared:
             t0 = time.time()
-            content = read_motion(self.m.motion_encoder, self.m.text_encoder, style).content
-            learned, _ = learn_style(self.m, self.data, style, words, content, self.learned, apply=self.config)
+            content_label = read_motion(self.m.motion_encoder, self.m.text_encoder, style_example).content
+            learned, _ = learn_style(self.m, self.data, style_example, words, content_label, self.learned,
+                                     apply=self.config)
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
-            self.progress(f"learned {style_label!r} from a {content} example: {learned.meta['iterations']} iterations, "
+            self.progress(f"learned {style_label!r} from a {content_label} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
         model, seconds, iterations = self.shared[key]
         if key not in self._seen:
@@ -130,12 +131,12 @@ class OnTheFly:
             self.shared[key] = content if skip else neutralize_features(self.m, content, text, self.learned, self.config, self.seed)
         return self.shared[key]
 
-    def __call__(self, content, style, style_label, content_label):
+    def __call__(self, content_feats, style_example, style_label, content_label):
         from transfer.apply import apply_style_features
 
-        model = self._model(style, style_label)
-        return apply_style_features(self.m, model, self._neutral(content), self.learned, self.config, self.strength,
-                                    self.seed)
+        model = self._model(style_example, style_label)
+        return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
+                                    self.strength, self.seed)
 
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, park_weights: Path | None = None,
