@@ -1,6 +1,6 @@
 """Inference with a trained Park et al. stylizer on normalised canonical features ``(T, D)``.
 
-Style codes come from noise + domain (mapping network F) or from a reference motion + domain (style
+Style codes come from noise + domain (the style label; mapping network F) or from a reference motion + domain (style
 encoder E). Content of any length is stylised in ``config.window``-frame windows overlapping by a
 quarter window and crossfaded; clips shorter than a window (or not a multiple of 4 frames) are
 padded with their last frame and cropped back. Every output keeps the content's root trajectory:
@@ -46,20 +46,20 @@ def _pad4(x: torch.Tensor, length: int | None = None) -> torch.Tensor:
 
 
 @torch.no_grad()
-def code_from_noise(model: ParkModel, domain: str, seed: int, n: int = 1) -> torch.Tensor:
-    """``(n, style_dim)`` style codes ``F(z, domain)`` for ``z`` drawn from a generator seeded with ``seed``."""
+def code_from_noise(model: ParkModel, style_label: str, seed: int, n: int = 1) -> torch.Tensor:
+    """``(n, style_dim)`` style codes ``F(z, style_label)`` for ``z`` drawn from a generator seeded with ``seed``."""
     dev = model_device(model)
     z = torch.randn(n, model.config.latent_dim, generator=torch.Generator().manual_seed(seed)).to(dev)
-    return model.f(z, torch.full((n,), model.domain_index(domain), dtype=torch.long, device=dev))
+    return model.f(z, torch.full((n,), model.domain_index(style_label), dtype=torch.long, device=dev))
 
 
 @torch.no_grad()
-def code_from_reference(model: ParkModel, reference: torch.Tensor, domain: str) -> torch.Tensor:
+def code_from_reference(model: ParkModel, reference: torch.Tensor, style_label: str) -> torch.Tensor:
     """``(style_dim,)`` style code ``E_domain(reference)`` of a normalised reference motion ``(T', D)`` (whole clip)."""
     if reference.ndim != 2 or reference.shape[1] != model.config.feature_dim:
         raise ValueError(f"reference: expected (T, {model.config.feature_dim}), got {tuple(reference.shape)}")
     dev = model_device(model)
-    y = torch.tensor([model.domain_index(domain)], device=dev)
+    y = torch.tensor([model.domain_index(style_label)], device=dev)
     return model.e(_pad4(reference.float().to(dev))[None], y)[0]
 
 
@@ -85,14 +85,14 @@ def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overla
     return out.to(content.device)
 
 
-def stylize_noise(model: ParkModel, content: torch.Tensor, domain: str, seed: int = 0, n_variants: int = 1) -> list[torch.Tensor]:
-    """``n_variants`` stylisations of ``content`` into ``domain``, one per noise draw (deterministic in ``seed``)."""
-    return [generate(model, content, c) for c in code_from_noise(model, domain, seed, n_variants)]
+def stylize_noise(model: ParkModel, content: torch.Tensor, style_label: str, seed: int = 0, n_variants: int = 1) -> list[torch.Tensor]:
+    """``n_variants`` stylisations of ``content`` into ``style_label``, one per noise draw (deterministic in ``seed``)."""
+    return [generate(model, content, c) for c in code_from_noise(model, style_label, seed, n_variants)]
 
 
-def stylize_reference(model: ParkModel, content: torch.Tensor, reference: torch.Tensor, domain: str) -> torch.Tensor:
-    """``content`` in the style of ``reference``, read as a motion of ``domain``."""
-    return generate(model, content, code_from_reference(model, reference, domain))
+def stylize_reference(model: ParkModel, content: torch.Tensor, reference: torch.Tensor, style_label: str) -> torch.Tensor:
+    """``content`` in the style of ``reference``, read as a motion of ``style_label``."""
+    return generate(model, content, code_from_reference(model, reference, style_label))
 
 
 def mixed_code(code_a: torch.Tensor, code_b: torch.Tensor, alpha: float) -> torch.Tensor:
