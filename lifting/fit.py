@@ -231,20 +231,6 @@ def floor_lift(rel: np.ndarray, root_y: np.ndarray, fps: float, window_s: float 
     return np.maximum(lift, need)  # the box average of the dilation is already >= need; guard rounding
 
 
-def skating(rel: np.ndarray, root: np.ndarray, fps: float) -> tuple[float, float]:
-    """``(foot speed, root speed)`` in m/s: the mean horizontal speed of the feet while they are
-    down, and of the root, along the path ``root (T, 3)``. A path that fits the legs keeps the
-    first small; on a treadmill or with a camera that follows the person it is near walking speed."""
-    if len(root) < 3:
-        return 0.0, 0.0
-    clear = foot_clearance(rel, root[:, 1])
-    c = contact_weights(clear, floor_level(clear, fps))
-    feet = root[:, None, [0, 2]] + rel[:, _FEET][..., [0, 2]]
-    v_feet = np.linalg.norm(np.gradient(feet, axis=0), axis=-1) * fps
-    v_root = np.linalg.norm(np.gradient(root[:, [0, 2]], axis=0), axis=-1) * fps
-    return float((c * v_feet).sum() / max(c.sum(), 1e-9)), float(v_root.mean())
-
-
 def floor_tilt(rel: np.ndarray, root: np.ndarray, fps: float, prior_m: float = 0.5, max_deg: float = 20.0) -> torch.Tensor:
     """Rotation ``(4,)`` float64 that levels the floor under the feet that are down along the camera path.
 
