@@ -1,6 +1,6 @@
 """Benchmark BlazePose tracking speed (ms per frame, frames per second).
 
-    python benchmarks/bench_blazepose.py [VIDEO] [--frames N] [--threads T]
+    python -m benchmarks.bench_blazepose [VIDEO] [--frames N] [--threads T]   # from the repository root
 
 Without VIDEO, a synthetic 1280×720 clip of a crude walking humanoid is
 written to a temporary folder first. Model download/conversion and session
@@ -15,10 +15,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from lifting.blazepose.synthetic import write_walking_clip
 from lifting.blazepose.tracker import PoseTracker
 from lifting.tracking import track
 from lifting.video import iter_frames, video_info
+from tests.lifting.synthetic_blazepose import write_walking_clip
 
 
 def decode_seconds(path: Path) -> float:

@@ -1,8 +1,10 @@
 """Benchmark the video -> 3-D pose pipeline: speed of `pose`, and accuracy against known truth.
 
-    python benchmarks/bench_pose.py speed [VIDEO] [--frames N] [--no-preview]
-    python benchmarks/bench_pose.py accuracy [--clips 10] [--keep DIR] [--json OUT]
-    python benchmarks/bench_pose.py fit [--stride 10]
+    python -m benchmarks.bench_pose speed [VIDEO] [--frames N] [--no-preview]
+    python -m benchmarks.bench_pose accuracy [--clips 10] [--keep DIR] [--json OUT]
+    python -m benchmarks.bench_pose fit [--stride 10]
+
+(from the repository root: it imports ``tests.lifting``).
 
 speed: runs :func:`video2style.pose.pose_file` (the whole ``pose`` command: decoding,
 BlazePose, fit, BVH, and the preview unless ``--no-preview``) on VIDEO, by default a 1280x720
@@ -35,18 +37,15 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+from tests.lifting.accuracy import acceleration, compare
 
-from lifting.accuracy import acceleration, compare
+REPO = Path(__file__).resolve().parents[1]  # the dataset cache's default place
 
 AZIMUTHS = (30.0, -45.0, 60.0, -20.0, 45.0, -60.0, 20.0, -30.0, 50.0, -40.0)
 
@@ -192,7 +191,7 @@ def speed(args) -> None:
 
 def _walking_video(path: Path, frames: int) -> Path:
     """A 1280x720 30 fps render of a walking humanoid (a Bandai test clip when the dataset cache
-    exists, else the synthetic stick figure of ``lifting.blazepose.synthetic``)."""
+    exists, else the synthetic stick figure of ``tests.lifting.synthetic_blazepose``)."""
     try:
         from lifting.render_humanoid import frame_camera, write_humanoid_video
         from motioncore.motion import resample
@@ -205,7 +204,7 @@ def _walking_video(path: Path, frames: int) -> Path:
         m = m.slice(0, min(frames, m.num_frames))
         return write_humanoid_video(m, frame_camera(m.global_positions().numpy(), 40.0), path)
     except (FileNotFoundError, StopIteration, ImportError):
-        from lifting.blazepose.synthetic import write_walking_clip
+        from tests.lifting.synthetic_blazepose import write_walking_clip
 
         return write_walking_clip(path, 1280, 720, n_frames=frames)
 

@@ -1,6 +1,6 @@
 """Automatic humanoid mapping: the generated rig corpus and any folders of real BVH files.
 
-    python benchmarks/humanoid_mapping.py [--posed N] [FOLDER ...]
+    python -m benchmarks.humanoid_mapping [--posed N] [FOLDER ...]   # from the repository root (the corpus lives with the tests)
 
 For each convention in tests/rig_corpus.py: whether every role was found exactly, and the
 canonical -> rig -> BVH text (its units, channels, Euler orders) -> canonical round-trip error.
@@ -25,9 +25,6 @@ from motioncore.kinematics import fk
 from motioncore.motion import Motion
 from motioncore.retarget import RetargetError, from_canonical, make_rig, to_canonical
 from motioncore.skeleton import CANONICAL, Skeleton
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # the corpus lives with the tests
 from tests.helpers import random_motion
 from tests.rig_corpus import CASES, DISPUTED_CASES
 from tests.rig_poses import POSES, posed_motion

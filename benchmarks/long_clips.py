@@ -1,6 +1,6 @@
 """Time and peak memory of ``apply`` and ``preview`` against clip length.
 
-    python benchmarks/long_clips.py STYLE.v2s [--frames 1000 10000 100000 200000] [--fps 30] [--out /tmp/long]
+    python -m benchmarks.long_clips STYLE.v2s [--frames 1000 10000 100000 200000] [--fps 30] [--out /tmp/long]   # from the repository root
 
 Writes a 30 fps (``--fps``) BVH of each length on a CMU-like skeleton (a walk-like synthetic motion), then runs
 ``video2style apply STYLE CLIP -o OUT`` and ``video2style preview CLIP -o OUT.mp4`` each in its own
@@ -12,7 +12,6 @@ import argparse
 import math
 import os
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,9 +21,6 @@ from motioncore import quat
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.motion import Motion
 from motioncore.retarget import from_canonical, make_rig
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # the synthetic skeletons live with the tests
 from tests.helpers import cmu_like_skeleton
 from tests.rig_corpus import case
 

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from lifting.blazepose.results import POSE_LANDMARKS, TrackResult
-from lifting.blazepose.synthetic import (
+from lifting.tracking import track
+from tests.lifting.synthetic_blazepose import (
     draw_humanoid,
     humanoid_frame,
     humanoid_joints,
     write_walking_clip,
 )
-from lifting.tracking import track
 
 # BlazePose index -> synthetic joint (the figure faces the camera: its left is image right)
 JOINTS = {

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 import torch
 
-from lifting.blazepose.synthetic import humanoid_frame
 from lifting.render_humanoid import frame_camera, write_humanoid_video
 from motioncore import quat
 from motioncore.bvh import read_bvh
@@ -23,6 +22,7 @@ from motioncore.ik_fit import default_reference
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from motioncore.skeleton import CANONICAL
+from tests.lifting.synthetic_blazepose import humanoid_frame
 
 SK = CANONICAL.skeleton
 W, H = 640, 360
@@ -141,7 +141,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert motion.skeleton is SK and motion.fps == pytest.approx(30.0) and motion.num_frames == truth.num_frames
     pred = motion.global_positions().double().numpy()
     gt = truth.global_positions().double().numpy()
-    from lifting.accuracy import compare
+    from tests.lifting.accuracy import compare
 
     m = compare(pred, gt, 30.0)
     assert m["pa_mpjpe_mm"] < 90.0, m
