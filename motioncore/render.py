@@ -52,6 +52,7 @@ class Panel:
     markers: torch.Tensor | None = None  # (T, J, 3) twist marker per bone (see twist_markers)
     colors: Sequence[tuple[int, int, int] | None] | None = None  # (J,) BGR per joint/bone, None: by side
     labels: Sequence[str] | None = None  # (J,) text drawn next to each joint ("" for none)
+    eye: Sequence[float] | None = None  # the camera's offset (3,) metres from the point it looks at; None: front-right
     _pos: np.ndarray = field(init=False, repr=False)
     _track: np.ndarray = field(init=False, repr=False)
 
@@ -69,6 +70,9 @@ class Panel:
                 raise ValueError(f"Panel: expected {j} {what}, got {len(v)}")
         if self.markers is not None and tuple(self.markers.shape) != pos.shape:
             raise ValueError(f"Panel: expected markers {pos.shape}, got {tuple(self.markers.shape)}")
+        if self.eye is not None and (np.shape(self.eye) != (3,) or not np.isfinite(self.eye).all()
+                                     or np.hypot(self.eye[0], self.eye[2]) < 1e-3):
+            raise ValueError(f"Panel: expected eye (3,) finite and off the vertical, got {self.eye}")
         self._pos = pos.astype(np.float64)
         self._marks = None if self.markers is None else self.markers.detach().cpu().numpy().astype(np.float64)
         self._track = _camera_track(self._pos)
@@ -93,11 +97,11 @@ def _camera_track(pos: np.ndarray) -> np.ndarray:
 
 
 class _Camera:
-    """Pinhole camera looking at ``(x, _TARGET_Y, z)`` from ``target + _EYE``."""
+    """Pinhole camera looking at ``(x, _TARGET_Y, z)`` from ``target + eye`` (default ``_EYE``)."""
 
-    def __init__(self, x: float, z: float, w: int, h: int):
+    def __init__(self, x: float, z: float, w: int, h: int, eye: Sequence[float] | None = None):
         target = np.array([x, _TARGET_Y, z])
-        self.eye = target + _EYE
+        self.eye = target + (_EYE if eye is None else np.asarray(eye, np.float64))
         f = target - self.eye
         f /= np.linalg.norm(f)
         r = np.cross(f, [0.0, 1.0, 0.0])
@@ -210,7 +214,7 @@ def _render_panel(panel: Panel, t: int, w: int, h: int, fps: float | None) -> np
     img = np.empty((h, w, 3), np.uint8)
     img[:] = BACKGROUND
     cx, cz = panel._track[k]
-    cam = _Camera(cx, cz, w, h)
+    cam = _Camera(cx, cz, w, h, panel.eye)
     _draw_grid(img, cam, cx, cz)
     pose = panel._pos[k]
     scale = h / 800

@@ -105,3 +105,21 @@ def test_preview_reports_the_broken_file(tmp_path, bvh_files):
     with pytest.raises(BvhError, match="bad.bvh:4"):
         preview_bvh_files([bvh_files[0], bad], tmp_path / "p.mp4")
     assert not (tmp_path / "p.mp4").exists()
+
+
+def test_eye_sets_the_view_a_rod_along_z_is_long_from_the_side_and_short_from_the_front():
+    j = 6
+    rod = torch.zeros(3, j, 3)
+    rod[:, :, 1] = 0.85
+    rod[:, :, 2] = torch.linspace(-0.5, 0.5, j)
+    names = [f"Bone{k}_L" for k in range(j)]
+
+    def width(eye):
+        img = render_frame([Panel(rod, [-1, 0, 1, 2, 3, 4], "rod", names=names, eye=eye)], 1, size=(200, 200))
+        xs = np.nonzero(_figure_mask(img))[1]
+        return xs.max() - xs.min()
+
+    assert width((3.3, 0.0, 0.0)) > 4 * width((0.01, 0.0, 3.3))
+    for bad in ((0.0, 2.0, 0.0), (1.0, 2.0), (float("nan"), 0.0, 1.0)):
+        with pytest.raises(ValueError, match="expected eye"):
+            Panel(rod, [-1, 0, 1, 2, 3, 4], "rod", eye=bad)
