@@ -18,7 +18,6 @@ VARIANTS = {
     "ours-diff-n0": {"apply_mode": "difference", "neutralize_step": 0},
     "ours-diffg": {"apply_mode": "difference", "guided_difference": True},
     "ours-diffg-n600": {"apply_mode": "difference", "guided_difference": True, "neutralize_step": 600},
-    "ours-diff-pp01": {"apply_mode": "difference", "lambda_p": 0.1},
     "ours-diff-pp005": {"apply_mode": "difference", "lambda_p": 0.05},
     "ours-diff-ls05": {"apply_mode": "difference", "lambda_s": 0.5},
     "ours-diff-ls1": {"apply_mode": "difference", "lambda_s": 1.0},
@@ -40,13 +39,17 @@ VARIANTS = {
     "ours-it150": {"iterations": 150},
     "ours-rotations": {"decode": "rotations", "style_scale": 0.9},  # the word-free default before the guarded decode
     "ours-g600": {"pair_noise_step": 600},  # the neutral pair drawn from step 600 instead of 950
-    "ours-dir2-ls0": {"lambda_dir": 2.0, "lambda_s": 0.0},
     "ours-dir1-ls0-pp05": {"lambda_dir": 1.0, "lambda_s": 0.0, "lambda_p": 0.5},
     "ours-dir1-ls0-it80": {"lambda_dir": 1.0, "lambda_s": 0.0, "iterations": 80},
     "ours-dir1-ls0-s3": {"lambda_dir": 1.0, "lambda_s": 0.0, "delta_smoothing": 3.0},
     "ours-no-guard": {"limb_guard": 0.0},  # no stray-limb guard at apply (motioncore.limbs.guard_limbs)
     "ours-w4": {"rec_windows": 4},  # L_rec on four windows of the example per iteration
     "ours-w4-s11": {"rec_windows": 4, "style_scale": 1.1},
+    # with the 34,000-step held-out prior (2026-12-04, before 21:00 on lambda_p 0.2 and lambda_dir 1): prior
+    # preservation off, with more iterations or more direction; and the defaults of 2026-12-02 to 12-04
+    "ours-no-pp-it80": {"lambda_p": 0.0, "iterations": 80},
+    "ours-no-pp-dir4": {"lambda_p": 0.0, "lambda_dir": 4.0},
+    "ours-pp02-dir1": {"lambda_p": 0.2, "lambda_dir": 1.0},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
@@ -56,7 +59,11 @@ ALIASES = {
     "stgcn-raw": "park-raw",
     "ours-no-ls": "ours",
     "ours-diff": "ours",
-    "ours-dir1-ls0": "ours",
+    "ours-dir1-ls0": "ours-pp02-dir1",
+    "ours-dir2-ls0": "ours",
+    "ours-diff-pp01": "ours",
+    "ours-no-pp-dir2": "ours-no-pp",
+    "ours-pp01-dir2": "ours",
     "ours-diff-no-pp": "ours-no-pp",
     "ours-diff-k600": "ours-k600",
 }
