@@ -18,6 +18,7 @@ features normalised with the cache's statistics. :func:`run_protocol` reports pe
 - ``skating``: :func:`motioncore.skating.foot_skating_ratio` of the generated motions' decoded
   positions (the reference row gives the real test clips' ratio under the same rule);
 - ``contact_agreement``: foot contact agreement between each content clip and its output;
+- ``judge_sra`` / ``judge_toward``: the independent hand-feature judge's reading (:mod:`evaluation.judge`);
 - ``sec_per_transfer``: mean wall time of one ``transfer`` call.
 """
 from __future__ import annotations
@@ -37,6 +38,7 @@ from evaluation.classifiers import (
     load_classifier,
     run_batched,
 )
+from evaluation.judge import judge_scores
 from evaluation.metrics import (
     foot_contact_agreement,
     frechet_distance,
@@ -172,6 +174,8 @@ class _Scorer:
             "cra": float(content_ok.float().mean()),
             "sra": float(style_ok.float().mean()),
             "by_style": by_target(styles, content_ok, style_ok, [self.style_clf.config.classes[int(i)] for i in style_pred]),
+            "by_content": {c: float(content_ok[[i for i, x in enumerate(contents) if x == c]].float().mean())
+                           for c in sorted(set(contents))},
             "skating": foot_skating_ratio([decode_positions(x.double()) for x in raw], self.fps),
         }
 
@@ -216,7 +220,8 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
     real = scorer.score(real_raw, [data.records[i].content for i in real_idx], real_styles)
     rows = [{"method": f"real {split} clips (reference)", "transfers": len(real_idx), "fmd": None, "fmd_style": None,
              "cra": real["cra"],
-             "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None, "stray": None, "stray_share": None}]
+             "sra": real["sra"], "skating": real["skating"], "contact_agreement": None, "sec_per_transfer": None, "seconds": None, "stray": None, "stray_share": None,
+             "judge_sra": None, "judge_toward": None}]
 
     for name, method in methods.items():
         outputs, seconds = [], 0.0
@@ -235,10 +240,13 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
             "cra": gen["cra"],
             "sra": gen["sra"],
             "by_style": gen["by_style"],
+            "by_content": gen["by_content"],
             "skating": gen["skating"],
             "contact_agreement": foot_contact_agreement([data.clip(it.content_index, normalized=False) for it in items], outputs, fps),
             **stray_summary([data.clip(it.content_index, normalized=False) for it in items],
                             [data.clip(it.style_index, normalized=False) for it in items], outputs),
+            **judge_scores(data_dir, [data.clip(it.content_index, normalized=False) for it in items], outputs,
+                           [it.content for it in items], [it.target_style for it in items]),
             "sec_per_transfer": seconds / len(items),
             "seconds": seconds,
         })
@@ -275,18 +283,24 @@ def format_table(rows: Sequence[dict]) -> str:
         return "–" if v is None else format(v, fmt)
 
     lines = [("| method | transfers | FMD ↓ | target-style FMD ↓ | CRA ↑ (%) | SRA ↑ (%) | foot skating (%) | "
-             "contact agreement (%) | stray limb, median (cm) ↓ | strays > 15 cm (%) ↓ | s / transfer |"),
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "contact agreement (%) | stray limb, median (cm) ↓ | strays > 15 cm (%) ↓ | judge SRA ↑ (%) | "
+             "judge: towards the style ↑ (%) | s / transfer |"),
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         pct = {k: None if r.get(k) is None else 100 * r[k]
-               for k in ("cra", "sra", "skating", "contact_agreement", "stray", "stray_share")}
+               for k in ("cra", "sra", "skating", "contact_agreement", "stray", "stray_share", "judge_sra", "judge_toward")}
         lines.append(f"| {r['method']} | {r['transfers']} | {num(r.get('fmd'), '.2f')} | {num(r.get('fmd_style'), '.2f')} | "
                      f"{num(pct['cra'], '.1f')} | "
                      f"{num(pct['sra'], '.1f')} | {num(pct['skating'], '.1f')} | {num(pct['contact_agreement'], '.1f')} | "
                      f"{num(pct['stray'], '.1f')} | {num(pct['stray_share'], '.0f')} | "
+                     f"{num(pct['judge_sra'], '.1f')} | {num(pct['judge_toward'], '.1f')} | "
                      f"{num(r.get('sec_per_transfer'), '.4f')} |")
-    notes = [f"- {r['method']}, by target style (CRA / SRA %; most read as): "
-             + "; ".join(f"{s} {100 * v['cra']:.0f} / {100 * v['sra']:.0f} ({next(iter(v['read_as']))})"
+    notes = [f"- {r['method']}, by target style (CRA / SRA %; most read as; judge SRA / towards %): "
+             + "; ".join(f"{s} {100 * v['cra']:.0f} / {100 * v['sra']:.0f} ({next(iter(v['read_as']))}; "
+                         + ("–" if s not in r.get("judge_by_style", {}) else
+                            f"{100 * r['judge_by_style'][s][0]:.0f} / {100 * r['judge_by_style'][s][1]:.0f}") + ")"
                          for s, v in r["by_style"].items())
              for r in rows if r.get("by_style")]
+    notes += [f"- {r['method']}, CRA by content (%): " + "; ".join(f"{c} {100 * v:.0f}" for c, v in r["by_content"].items())
+              for r in rows if r.get("by_content")]
     return "\n".join(lines + ([""] + notes if notes else []))

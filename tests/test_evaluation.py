@@ -96,7 +96,10 @@ def test_run_protocol_on_a_tiny_cache(tmp_path):
     assert ident["fmd"] >= 0 and noise["fmd"] > ident["fmd"]
     assert {s for s, _ in calls} <= {"normal", "elderly"} and all(s != "" for s, _ in calls)
     table = format_table(rows)
-    assert table.count("\n") == 7 and "| identity | 12 |" in table  # 5 table lines, a blank, 2 by-style notes
+    # 5 table lines, a blank, 2 by-style notes, 2 by-content notes
+    assert table.count("\n") == 9 and "| identity | 12 |" in table
+    assert ident["judge_toward"] == 0.0 and 0.0 <= noise["judge_toward"] <= 1.0  # the unchanged content moved nowhere
+    assert set(ident["judge_by_style"]) == {s for s, _ in calls} and set(ident["by_content"]) == {"walk", "wave-left-hand"}
     for r in (ident, noise):  # per target style: the share read right, weighted back to the row's SRA and CRA
         by = r["by_style"]
         assert sum(v["n"] for v in by.values()) == r["transfers"]
@@ -105,7 +108,7 @@ def test_run_protocol_on_a_tiny_cache(tmp_path):
         assert all(abs(sum(v["read_as"].values()) - 1) < 1e-6 for v in by.values())
         for s, v in by.items():
             assert abs(v["read_as"].get(s, 0.0) - v["sra"]) < 1e-6
-    assert "- identity, by target style (CRA / SRA %; most read as): " in table
+    assert "- identity, by target style (CRA / SRA %; most read as; judge SRA / towards %): " in table
 
     def broken(c, s, style_label, content_label):
         return c[:-1]

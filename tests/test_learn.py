@@ -133,7 +133,7 @@ def test_variants_that_learn_alike_share_their_styles(toys):
 
 
 @pytest.mark.parametrize("kw", [{"lambda_stat": 1.0}, {"lambda_stat": 1.0, "stat_reference": "neutral"},
-                                {"lambda_dir": 1.0, "lambda_s": 0.0}])
+                                {"lambda_dir": 1.0, "lambda_s": 0.0}, {"lambda_stat_dir": 1.0}])
 def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
@@ -157,3 +157,13 @@ def test_words_matter_only_through_the_semantic_loss(toys):
     assert any(not torch.equal(d.adapters[k], e.adapters[k]) for k in d.adapters)  # L_s on: the words enter
     with pytest.raises(ValueError, match="expected stat_reference"):
         learn_style(bundle, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))
+
+
+def test_neutral_pair_is_the_one_learning_draws(toys):
+    from transfer.learn import neutral_pair
+
+    bundle, cache = toys
+    data = MotionDataset(cache, "train")
+    _, info = learn_style(bundle, data, data.clip(2), "old", "walk", _config(seed=3))
+    assert torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=3), "walk"), info["pair"])
+    assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk"), info["pair"])

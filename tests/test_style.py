@@ -235,3 +235,27 @@ def test_reconstruction_loss_over_several_windows_is_their_mean():
     assert torch.allclose(both, (one[0] + one[1]) / 2, atol=1e-6)
     with pytest.raises(ValueError, match="expected m_n and m_s"):
         reconstruction_loss(Zeros(), sched, a, torch.cat([a, b]), cfg, torch.Generator())
+
+
+def test_match_posture_moves_the_time_mean_only():
+    from transfer.apply import match_posture
+    from transfer.style_losses import STAT_CHANNELS
+
+    torch.manual_seed(0)
+    content = torch.randn(40, FEATURES.dim)
+    out = content + 0.1 * torch.randn(40, FEATURES.dim)
+    shift = torch.randn(len(STAT_CHANNELS))
+    ch = STAT_CHANNELS
+    same = match_posture(out, content, shift, 0.0)
+    assert torch.equal(same, out)
+    full = match_posture(out, content, shift, 1.0, amount=0.5)
+    assert torch.allclose(full[:, ch].mean(0) - content[:, ch].mean(0), 0.5 * shift, atol=1e-5)
+    assert torch.allclose(full - full.mean(0), out - out.mean(0), atol=1e-5)  # how it moves: unchanged
+    others = torch.ones(FEATURES.dim, dtype=torch.bool)
+    others[ch] = False
+    assert torch.equal(full[:, others], out[:, others])  # root path and contacts untouched
+    half = match_posture(out, content, shift, 0.5)
+    change = out[:, ch].mean(0) - content[:, ch].mean(0)
+    assert torch.allclose(half[:, ch].mean(0) - content[:, ch].mean(0), 0.5 * change + 0.5 * shift, atol=1e-5)
+    with pytest.raises(ValueError, match="expected a shift"):
+        match_posture(out, content, shift[:3], 1.0)

@@ -123,9 +123,11 @@ def test_a_style_file_from_before_the_config_split_loads_and_learn_writes_the_sa
     assert (learned.lambda_p, applied.style_scale, applied.limb_guard) == (0.5, 1.1, 0.0)
     assert (learned.pair_noise_step, learned.pair_ddim_steps, learned.transfer_noise_step, learned.transfer_ddim_steps) \
         == (950, 30, 300, 6)
-    # the same JSON, key for key, but for the step fields' new names (OLD_NAMES), in their places
+    # the same JSON, key for key, but for the step fields' new names (OLD_NAMES), in their places, and the fields
+    # added since at the end, with their defaults
     renamed = {OLD_NAMES.get(k, k): v for k, v in meta["config"].items()}
-    assert json.dumps(config_dict(learned, applied)) == json.dumps(renamed)
+    added = {"lambda_stat_dir": 0.0, "posture": 0.0}
+    assert json.dumps(config_dict(learned, applied)) == json.dumps(renamed | added)
     partial = Style.load(_write(tmp_path / "partial.v2s", good[0] | {"config": {"decode": "rotations"}}, tensors))
     assert partial.configs()[1].decode == "rotations" and partial.configs()[0].transfer_noise_step == 300  # defaults
 

@@ -64,3 +64,17 @@ def test_directional_loss_known_values():
     assert directional_loss(torch.tensor([[2.0, 0, 0], [0.5, 0, 0]]), z_prior, d) == pytest.approx(0.0)
     assert directional_loss(torch.tensor([[-1.0, 0, 0], [-3.0, 0, 0]]), z_prior, d) == pytest.approx(2.0)
     assert directional_loss(torch.tensor([[0.0, 1.0, 0]]), z_prior[:1], d) == pytest.approx(1.0)
+
+
+def test_statistics_direction_loss_asks_for_the_direction_only():
+    from transfer.style_losses import STAT_CHANNELS, statistics_direction_loss
+
+    torch.manual_seed(0)
+    prior = torch.randn(3, 30, FEATURES.dim)
+    valid = torch.ones(3, 30, dtype=torch.bool)
+    offset = torch.zeros(FEATURES.dim)
+    offset[STAT_CHANNELS[:5]] = torch.tensor([0.5, -0.2, 0.1, 0.3, -0.4])
+    shift = (offset[STAT_CHANNELS], torch.zeros(len(STAT_CHANNELS)))
+    for size in (0.1, 2.0):  # any size of the same change: no loss
+        assert statistics_direction_loss(prior + size * offset, prior, valid, shift) < 1e-5
+    assert abs(float(statistics_direction_loss(prior - offset, prior, valid, shift)) - 2.0) < 1e-5  # the opposite way

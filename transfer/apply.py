@@ -128,7 +128,7 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
 @torch.no_grad()
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
-                         window: int = 80, overlap: int = 20) -> torch.Tensor:
+                         window: int = 80, overlap: int = 20, posture_shift: torch.Tensor | None = None) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
@@ -143,7 +143,27 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     gen = torch.Generator().manual_seed(seed)
     chunks = _in_batches(lambda p: stylize(model, bundle.scheduler, p, learned, config, gen, step=step, prior=bundle.prior),
                          starts, windows)
-    return crossfade(chunks, starts, x.shape[0]).to(out_device)
+    out = crossfade(chunks, starts, x.shape[0])
+    if posture_shift is not None and config.posture > 0:
+        out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
+    return out.to(out_device)
+
+
+def match_posture(out: torch.Tensor, content: torch.Tensor, posture_shift: torch.Tensor, weight: float,
+                  amount: float = 1.0) -> torch.Tensor:
+    """``out (T, D)``, stylised from ``content (T, D)`` (normalised), with the time-mean change of its body channels
+    (:data:`transfer.style_losses.STAT_CHANNELS`) blended by ``weight`` towards ``amount * posture_shift (C,)``, the
+    example's time-mean change against its neutral pair: a constant offset per channel, so how the content moves is
+    kept and where it holds each joint follows the example."""
+    from transfer.style_losses import STAT_CHANNELS
+
+    if posture_shift.shape != (len(STAT_CHANNELS),):
+        raise ValueError(f"match_posture: expected a shift ({len(STAT_CHANNELS)},), got {tuple(posture_shift.shape)}")
+    ch = STAT_CHANNELS.to(out.device)
+    change = out[:, ch].mean(0) - content[:, ch].mean(0)
+    out = out.clone()
+    out[:, ch] += weight * (amount * posture_shift.to(out) - change)
+    return out
 
 
 def decoder(config: ApplyConfig, reference: Motion | None = None, example: torch.Tensor | None = None):

@@ -30,6 +30,7 @@ from transfer.style_file import Style
 from transfer.style_losses import (
     directional_loss,
     neutral_shift,
+    statistics_direction_loss,
     statistics_loss,
     style_shift,
 )
@@ -70,9 +71,7 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
 
     if config.pair_generation:
         say("generating the style-neutral pair")
-        with torch.no_grad():
-            pair = neutralize(prior, scheduler, example[None], text_encoder.encode([neutral_text]).to(device), config,
-                              gen)[0]
+        pair = _pair(bundle, example, neutral_text, config, gen)
     else:
         pair = example.clone()
 
@@ -91,7 +90,7 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         styled = [f"{c}, {style_words} style" for c in target_captions]
         target_emb = dict(zip(target_captions, text_encoder.encode(styled).to(device)))
     shift = None
-    if config.lambda_stat > 0:
+    if config.lambda_stat > 0 or config.lambda_stat_dir > 0:
         same = [i for i in neutral if dataset.records[i].caption == neutral_text] if config.stat_reference == "neutral" else []
         if config.stat_reference not in ("pair", "neutral"):
             raise ValueError(f"learn_style: expected stat_reference 'pair' or 'neutral', got {config.stat_reference!r}")
@@ -133,8 +132,10 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         if config.lambda_p > 0:  # the style model's x0 on content should stay near the prior's
             w = valid[..., None].to(x0_c.dtype)
             loss = loss + config.lambda_p * (((x0_c - x0_p) ** 2) * w).sum() / (w.sum() * x0_c.shape[-1])
-        if shift is not None:  # word-free: shift the content's statistics as the example shifts its pair's
+        if config.lambda_stat > 0:  # word-free: shift the content's statistics as the example shifts its pair's
             loss = loss + config.lambda_stat * statistics_loss(x0_c, x0_p, valid, shift, config.stat_std)
+        if config.lambda_stat_dir > 0:  # word-free: ... or at least point their change the same way
+            loss = loss + config.lambda_stat_dir * statistics_direction_loss(x0_c, x0_p, valid, shift)
         if config.lambda_dir > 0:  # word-free: the change points the example's way in the encoder's space
             with torch.no_grad():
                 z_p = motion_encoder(x0_p * valid[..., None], valid)
@@ -164,6 +165,25 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         "rank": config.rank,
     }
     return Style(lora_state(model), meta), {"pair": pair.cpu(), "history": history}
+
+
+@torch.no_grad()
+def _pair(bundle, example: torch.Tensor, neutral_text: str, config: LearnConfig, gen: torch.Generator) -> torch.Tensor:
+    text = bundle.text_encoder.encode([neutral_text]).to(example.device)
+    return neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
+
+
+def neutral_pair(bundle, example: torch.Tensor, config: LearnConfig, content_text: str | None = None) -> torch.Tensor:
+    """The style-neutral pair ``(T, D)`` of a normalised ``example (T, D)`` exactly as :func:`learn_style` draws it
+    with ``config`` (its seed): ``content_text`` as learning is given it (default: what the motion encoder reads)."""
+    from transfer.apply import read_motion
+
+    if content_text is None:
+        content_text = read_motion(bundle.motion_encoder, bundle.text_encoder, example).content
+    neutral_text = content_text if content_text.startswith("a person") else caption(content_text, None)
+    device = model_device(bundle.prior)
+    torch.manual_seed(config.seed)
+    return _pair(bundle, example.to(device), neutral_text, config, torch.Generator().manual_seed(config.seed)).cpu()
 
 
 def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:

@@ -42,6 +42,8 @@ class LearnConfig:
     stat_reference: str = "pair"  # what the example is compared with for that shift: its neutral pair, or
     # "neutral": the content source's neutral clips of the example's caption (the pair when it has none)
     lambda_dir: float = 2.0  # word-free: the change in the motion encoder's space points as example - pair does
+    lambda_stat_dir: float = 0.0  # word-free: the change of the content's body-channel statistics points as the
+    # example's against its pair does (transfer.style_losses.statistics_direction_loss)
 
 
 @dataclass
@@ -63,6 +65,8 @@ class ApplyConfig:
     limb_guard: float = 0.08  # apply: metres; a hand or foot whose time-mean place (hips' facing frame) lies further than
     # this off the segment from the content's place to the example's is drawn back by IK, softly, never left past 1.5x
     # (motioncore.limbs.guard_limbs); 0: off (the ablation)
+    posture: float = 0.0  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
+    # style model's towards the example's change against its neutral pair (transfer.apply.match_posture)
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
@@ -77,7 +81,7 @@ CONFIG_RANGES = {
     "neutralize_step": (int, 0, 999), "guided_difference": (bool, None, None), "delta_smoothing": (float, 0.0, 100.0),
     "lambda_stat": (float, 0.0, 100.0), "stat_std": (bool, None, None), "stat_reference": (str, ("pair", "neutral"), None),
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
-    "limb_guard": (float, 0.0, 1.0),
+    "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
 }
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones

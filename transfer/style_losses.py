@@ -71,3 +71,16 @@ def statistics_loss(x0_style: torch.Tensor, x0_prior: torch.Tensor, valid: torch
 def directional_loss(z_style: torch.Tensor, z_prior: torch.Tensor, direction: torch.Tensor) -> torch.Tensor:
     """``1 - cos(z_style - z_prior, direction)`` averaged over the batch: embeddings ``(B, E)``, ``direction (E,)``."""
     return (1 - F.cosine_similarity(z_style - z_prior, direction[None].expand_as(z_style), dim=-1, eps=1e-8)).mean()
+
+
+def statistics_direction_loss(x0_style: torch.Tensor, x0_prior: torch.Tensor, valid: torch.Tensor,
+                              shift: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
+    """``1 - cos`` between the statistics change the style model makes on each content clip (``x0_style`` against
+    ``x0_prior``, both ``(B, T, D)`` over ``valid (B, T)``: means and log standard deviations of the body channels,
+    :func:`time_stats`) and the example's change against its pair, ``shift`` (:func:`style_shift`), averaged over
+    the batch: the direction of the change is asked for, its size is left to the reconstruction."""
+    m_s, s_s = time_stats(x0_style, valid)
+    m_p, s_p = time_stats(x0_prior, valid)
+    change = torch.cat([m_s - m_p, s_s - s_p], -1)
+    target = torch.cat(shift)[None].expand_as(change)
+    return (1 - F.cosine_similarity(change, target, dim=-1, eps=1e-8)).mean()

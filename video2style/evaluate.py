@@ -63,6 +63,9 @@ def _key(*parts) -> str:
     return h.hexdigest()
 
 
+ADDED_OFF = ("lambda_stat_dir",)  # learning fields added later: off (0), a style cache's key leaves them out
+
+
 class OnTheFly:
     """Our method as a protocol method: learns (once) a style per style example, then applies it.
 
@@ -95,7 +98,8 @@ class OnTheFly:
 
         # keyed by the names the step fields had before (OLD_NAMES), so a --style-cache folder from before still serves
         before = {new: old for old, new in OLD_NAMES.items()}
-        learn_config = {before.get(k, k): v for k, v in asdict(self.learned).items() if k != "max_seconds"}
+        learn_config = {before.get(k, k): v for k, v in asdict(self.learned).items()
+                        if k != "max_seconds" and not (k in ADDED_OFF and v == 0)}  # keys of a cache from before
         words = self.words or style_label
         key = "style" + _key(style_example, words, learn_config, str(getattr(self.m, "prior_path", "")))
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
@@ -136,7 +140,20 @@ class OnTheFly:
 
         model = self._model(style_example, style_label)
         return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
-                                    self.strength, self.seed)
+                                    self.strength, self.seed, posture_shift=self._posture(style_example))
+
+    def _posture(self, style_example: torch.Tensor) -> torch.Tensor | None:
+        """The example's time-mean change against its neutral pair (drawn as learning draws it), for ``posture``."""
+        if self.config.posture <= 0:
+            return None
+        key = "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
+        if key not in self.shared:
+            from transfer.learn import neutral_pair
+            from transfer.style_losses import style_shift
+
+            pair = neutral_pair(self.m, style_example, self.learned)
+            self.shared[key] = style_shift(style_example, pair)[0]
+        return self.shared[key]
 
 
 def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=print, park_weights: Path | None = None,

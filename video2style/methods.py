@@ -50,6 +50,11 @@ VARIANTS = {
     "ours-no-pp-it80": {"lambda_p": 0.0, "iterations": 80},
     "ours-no-pp-dir4": {"lambda_p": 0.0, "lambda_dir": 4.0},
     "ours-pp02-dir1": {"lambda_p": 0.2, "lambda_dir": 1.0},
+    # 2026-12-05: the direction of the statistics change (word-free, not the encoder's space)
+    "ours-statdir1": {"lambda_stat_dir": 1.0},
+    # ... and the example's posture change at apply (transfer.apply.match_posture)
+    "ours-posture05": {"posture": 0.5},
+    "ours-posture1": {"posture": 1.0},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
