@@ -136,6 +136,7 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style
 
     style, model = style_and_model
     monkeypatch.setitem(style.meta["config"], "limb_guard", 0.0)  # the stray-limb guard is the whole take's: not streamed
+    monkeypatch.setitem(style.meta["config"], "posture", 0.0)  # nor is the posture match
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))  # 300 canonical frames: 5 windows
     monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 3 batches, finished across the spans' ends

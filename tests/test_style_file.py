@@ -143,3 +143,22 @@ def test_a_style_file_with_the_old_step_names_loads_under_the_new_ones(tmp_path,
     both = dict(meta, config={"transfer_step": 300, "transfer_noise_step": 300})
     with pytest.raises(ValueError, match="invalid style file: config: transfer_step and transfer_noise_step are the same"):
         Style.load(_write(tmp_path / "both.v2s", both, tensors))
+
+
+def test_the_posture_shift_round_trips_and_is_checked(tmp_path, good):
+    from transfer.style_losses import STAT_CHANNELS
+
+    meta, tensors = good
+    assert Style.load(_write(tmp_path / "none.v2s", meta, tensors)).posture_shift is None  # files from before
+    shift = torch.linspace(-1, 1, len(STAT_CHANNELS))
+    style = Style.load(_write(tmp_path / "p.v2s", meta, tensors | {"posture_shift": shift}))
+    assert torch.equal(style.posture_shift, shift) and "posture_shift" not in style.adapters
+    style.save(tmp_path / "again.v2s")
+    assert torch.equal(Style.load(tmp_path / "again.v2s").posture_shift, shift)
+    for bad, message in ((shift[:5], "posture_shift: expected"), (shift * float("nan"), "NaN"),
+                         (shift * 1e6, "magnitude")):
+        with pytest.raises(ValueError, match=message) as e:
+            Style.load(_write(tmp_path / "bad.v2s", meta, tensors | {"posture_shift": bad}))
+        assert "bad.v2s" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="no adapter tensors"):
+        Style.load(_write(tmp_path / "only.v2s", meta, {"posture_shift": shift}))

@@ -133,7 +133,9 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
     ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
-    crossfaded over 20. Runs on the models' device (``model`` and the prior on one); the result is on ``x``'s."""
+    crossfaded over 20. ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
+    above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). Runs on the
+    models' device (``model`` and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
     device = model_device(model)
     out_device, x = x.device, x.to(device)
@@ -238,7 +240,7 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
         detected = reading.describe()
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
     out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
-                               neutral_text)
+                               neutral_text, posture_shift=style.posture_shift)
     out = bundle.denormalize(out, inplace=True)
     p0 = content_motion.global_positions()[:1].double()
     raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),

@@ -51,6 +51,8 @@ class Style:
     meta: dict = field(default_factory=dict)
     example: torch.Tensor | None = None  # the style example, canonical features (T, D), for previews
     source: Path | None = None  # the file it was loaded from: errors about its contents name it
+    posture_shift: torch.Tensor | None = None  # (C,): the example's time-mean change of the body channels against its
+    # neutral pair, normalised (transfer.apply.match_posture); None in files learned before 2026-12-05
 
     def configs(self) -> tuple[LearnConfig, ApplyConfig]:
         """The configs the style was learned with (fields its file lacks: today's defaults). A loaded file's
@@ -66,6 +68,8 @@ class Style:
         tensors = {k: v.to("cpu", torch.float16).contiguous() for k, v in self.adapters.items()}
         if self.example is not None:
             tensors["example"] = self.example.to("cpu", torch.float32).contiguous()
+        if self.posture_shift is not None:
+            tensors["posture_shift"] = self.posture_shift.to("cpu", torch.float32).contiguous()
         data = save(tensors, metadata={"video2style": json.dumps(self.meta)})
         try:
             with atomic_output(path, ".tmp") as tmp:
@@ -97,8 +101,9 @@ class Style:
             validate_style(meta, tensors)
         except ValueError as e:
             raise ValueError(f"{path}: invalid style file: {' '.join(str(e).split())}") from None  # one line, always
-        example = tensors.pop("example", None)
-        return Style({k: v.float() for k, v in tensors.items()}, meta, None if example is None else example.float(), path)
+        example, shift = tensors.pop("example", None), tensors.pop("posture_shift", None)
+        return Style({k: v.float() for k, v in tensors.items()}, meta, None if example is None else example.float(), path,
+                     None if shift is None else shift.float())
 
 
 def style_model(prior, style: Style, gain: float = 1.0):
@@ -179,13 +184,19 @@ def validate_meta(meta) -> dict:
 
 
 def validate_tensors(tensors: dict[str, torch.Tensor], rank: int) -> None:
-    """Adapter tensors (``*.lora_a (rank, in)``, ``*.lora_b (out, rank)``) and the optional ``example (T, D)``."""
-    if not any(k != "example" for k in tensors):
+    """Adapter tensors (``*.lora_a (rank, in)``, ``*.lora_b (out, rank)``), the optional ``example (T, D)`` and the
+    optional ``posture_shift (C,)``."""
+    from transfer.style_losses import STAT_CHANNELS
+
+    if not any(k not in ("example", "posture_shift") for k in tensors):
         raise ValueError("tensors: no adapter tensors")
     for name, t in tensors.items():
         if name == "example":
             if t.ndim != 2 or t.shape[1] != FEATURES.dim or not 1 <= t.shape[0] <= MAX_EXAMPLE_FRAMES:
                 raise ValueError(f"example: expected (T <= {MAX_EXAMPLE_FRAMES}, {FEATURES.dim}), got {tuple(t.shape)}")
+        elif name == "posture_shift":
+            if t.shape != (len(STAT_CHANNELS),):
+                raise ValueError(f"posture_shift: expected ({len(STAT_CHANNELS)},), got {tuple(t.shape)}")
         elif not name.endswith(("lora_a", "lora_b")) or len(name) > 200:
             raise ValueError(f"tensor {name[:60]!r}: not an adapter tensor")
         elif t.ndim != 2 or (t.shape[0] if name.endswith("lora_a") else t.shape[1]) != rank:
@@ -194,7 +205,7 @@ def validate_tensors(tensors: dict[str, torch.Tensor], rank: int) -> None:
             raise ValueError(f"tensor {name[:60]}: expected floating point values, got {t.dtype}")
         if not torch.isfinite(t).all():
             raise ValueError(f"tensor {name[:60]}: holds NaN or infinite values")
-        bound = MAX_EXAMPLE_VALUE if name == "example" else MAX_ADAPTER_VALUE
+        bound = MAX_EXAMPLE_VALUE if name in ("example", "posture_shift") else MAX_ADAPTER_VALUE
         if t.numel() and float(t.abs().max()) > bound:
             raise ValueError(f"tensor {name[:60]}: expected values of magnitude at most {bound:g}, "
                              f"got {float(t.abs().max()):.3g}")

@@ -318,6 +318,8 @@ def cmd_learn(args) -> None:
         config = replace(config, seed=args.seed)
     if args.limb_guard is not None:
         apply_config = replace(apply_config, limb_guard=args.limb_guard)
+    if args.posture is not None:
+        apply_config = replace(apply_config, posture=args.posture)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
@@ -535,7 +537,8 @@ def cmd_evaluate(args) -> None:
     for line in evaluate(args.data, args.out, quick=args.quick, methods=args.methods, seed=args.seed,
                          examples_pool=args.examples_pool, park_weights=args.park_weights, split=args.split,
                          strengths=args.strengths, iterations=args.iterations, style_cache=args.style_cache,
-                         unseen=args.unseen, unseen_models=args.unseen_models, words=args.style_words):
+                         unseen=args.unseen, unseen_models=args.unseen_models, words=args.style_words,
+                         groups=args.groups):
         print(line)
 
 
@@ -734,6 +737,9 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--limb-guard", type=_style_option("limb_guard"), metavar="METRES",
                     help="at apply, a hand or foot whose mean place strays further than this from anywhere between the "
                          f"content's and the example's is drawn back (default: {ApplyConfig.limb_guard}; 0: off)")
+    lr.add_argument("--posture", type=_style_option("posture"), metavar="0-1",
+                    help="at apply, how far each joint's mean place follows the example's (against its neutral pair) "
+                         f"rather than the style model's change (default: {ApplyConfig.posture}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
@@ -909,6 +915,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--unseen-models", type=Path, metavar="DIR",
                     help="--unseen: the folder with the held-out denoiser.safetensors and motion_encoder.safetensors "
                          "(default: the development weights in evaluation/weights/unseen)")
+    ev.add_argument("--groups", nargs="+", choices=("held-out", "seen"), default=["held-out", "seen"],
+                    help="--unseen: the target groups to run (default: both)")
     ev.add_argument("--style-words", metavar="WORDS",
                     help="learn every style under these words instead of its name (e.g. qwxz: a name that means "
                          "nothing to the encoders)")

@@ -218,13 +218,13 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
              examples_pool: int | None = None, progress=print, park_weights: Path | None = None,
              split: str = "test", strengths: list[float] | None = None, iterations: int | None = None,
              style_cache: Path | None = None, unseen: bool = False, unseen_models: Path | None = None,
-             words: str | None = None) -> Iterator[str]:
+             words: str | None = None, groups: tuple[str, ...] | list[str] = ("held-out", "seen")) -> Iterator[str]:
     """Run the protocol; writes ``out_dir/table.md``, ``rows.json`` and ``tradeoff.png``; yields the report lines.
 
     ``unseen``: the unseen-style protocol: our methods use the models in ``unseen_models`` (default
     :func:`unseen_models_dir`), trained without the held-out styles; neutral content clips of every content
     go to the held-out styles (rows marked "[held-out]") and, from the same models, to the other styles
-    ("[seen]"). ``words``: learn every style under these words instead of its name.
+    ("[seen]"); ``groups``: only these of the two. ``words``: learn every style under these words instead of its name.
     """
     from evaluation.protocol import (
         HELD_OUT_STYLES,
@@ -257,10 +257,13 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
                                   models_dir, excluded, words)
     if unseen:
         per_content = None if quick else UNSEEN_FULL["per_content"] // (2 if split == "val" else 1)
-        groups = {"held-out": HELD_OUT_STYLES,
+        only, groups = groups, {"held-out": HELD_OUT_STYLES,
                   "seen": tuple(s for s in STYLES if s not in HELD_OUT_STYLES and s != NEUTRAL_STYLE)}
         rows = []
-        for group, targets in groups.items():
+        unknown = sorted(set(only) - set(groups))
+        if unknown or not only:
+            raise ValueError(f"evaluate: expected groups among {', '.join(groups)}, got {', '.join(unknown) or 'none'}")
+        for group, targets in ((g, t) for g, t in groups.items() if g in only):
             part = run_protocol(fns, Path(data_dir), quick=quick, seed=seed, examples_pool=examples_pool, split=split,
                                 per_content=per_content, sources=(NEUTRAL_STYLE,), targets=targets)
             for r in part[1:]:

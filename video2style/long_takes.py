@@ -9,8 +9,9 @@ Two things are the whole take's and gathered by a first pass over it: the floor 
 shift) and each foot joint's lowest height (the contact channels). Decoding, foot cleanup and the write-back
 see :data:`MARGIN` frames either side of each span; the result equals the whole-clip path's (the tests: within
 0.05 cm) except where a foot contact lasts longer than the margin across a span's end, and except for the
-stray-limb guard (``ApplyConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`), which needs the whole
-result's time-mean limb places and is not applied to a take streamed a span at a time.
+stray-limb guard (``ApplyConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`) and the posture match
+(``ApplyConfig.posture``, :func:`transfer.apply.match_posture`), which need the whole result's time means and are
+not applied to a take streamed a span at a time.
 """
 from __future__ import annotations
 
@@ -274,7 +275,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
             "seconds_transfer": time.time() - t0, "output": str(out_path),
             "stream_note": f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
                            f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take); "
-                           "no stray-limb guard (it needs the whole take's mean limb places)"}
+                           "no stray-limb guard or posture match (they need the whole take's means)"}
     if preview:
         made = [out_path]
         try:

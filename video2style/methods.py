@@ -55,6 +55,8 @@ VARIANTS = {
     # ... and the example's posture change at apply (transfer.apply.match_posture)
     "ours-posture05": {"posture": 0.5},
     "ours-posture1": {"posture": 1.0},
+    "ours-posture03": {"posture": 0.3},
+    "ours-posture07": {"posture": 0.7},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
