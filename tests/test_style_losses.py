@@ -78,3 +78,21 @@ def test_statistics_direction_loss_asks_for_the_direction_only():
     for size in (0.1, 2.0):  # any size of the same change: no loss
         assert statistics_direction_loss(prior + size * offset, prior, valid, shift) < 1e-5
     assert abs(float(statistics_direction_loss(prior - offset, prior, valid, shift)) - 2.0) < 1e-5  # the opposite way
+
+
+def test_posture_shift_keeps_a_held_offset_and_drops_one_made_up_by_phase():
+    from transfer.style_losses import STAT_CHANNELS, posture_shift
+
+    t = torch.arange(80, dtype=torch.float32)
+    pair = torch.zeros(80, FEATURES.dim)
+    pair[:, STAT_CHANNELS[0]] = torch.sin(2 * torch.pi * t / 20)
+    example = pair.clone()
+    example[:, STAT_CHANNELS[1]] += 0.3  # held all along
+    example[:, STAT_CHANNELS[0]] = torch.sin(2 * torch.pi * (t + 3) / 20 + 0.4) + 0.05  # out of phase, a small mean
+    shift = posture_shift(example, pair)
+    assert shift.shape == (len(STAT_CHANNELS),)
+    assert abs(float(shift[1]) - 0.3) < 1e-4
+    assert abs(float(shift[0])) < 0.01  # 0.05 of mean under a spread of ~0.9: dropped
+    assert torch.count_nonzero(shift[2:]) == 0
+    with pytest.raises(ValueError, match="expected example and pair"):
+        posture_shift(example, pair[:10])

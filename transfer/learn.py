@@ -30,6 +30,7 @@ from transfer.style_file import Style
 from transfer.style_losses import (
     directional_loss,
     neutral_shift,
+    posture_shift,
     statistics_direction_loss,
     statistics_loss,
     style_shift,
@@ -164,8 +165,8 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         "base_model_sha256": None,  # the prior's file, recorded where a style is learned from a file to be shared
         "rank": config.rank,
     }
-    posture_shift = style_shift(example, pair)[0].cpu()  # where the example holds each joint, against its pair
-    return Style(lora_state(model), meta, posture_shift=posture_shift), {"pair": pair.cpu(), "history": history}
+    posture = posture_shift(example, pair).cpu()  # where the example holds each joint, against its pair
+    return Style(lora_state(model), meta, posture_shift=posture), {"pair": pair.cpu(), "history": history}
 
 
 @torch.no_grad()

@@ -65,8 +65,9 @@ class ApplyConfig:
     limb_guard: float = 0.08  # apply: metres; a hand or foot whose time-mean place (hips' facing frame) lies further than
     # this off the segment from the content's place to the example's is drawn back by IK, softly, never left past 1.5x
     # (motioncore.limbs.guard_limbs); 0: off (the ablation)
-    posture: float = 0.0  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
-    # style model's towards the example's change against its neutral pair (transfer.apply.match_posture)
+    posture: float = 0.5  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
+    # style model's towards the example's change against its neutral pair (transfer.apply.match_posture; 0.5 chosen
+    # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were

@@ -43,6 +43,24 @@ def style_shift(example: torch.Tensor, pair: torch.Tensor) -> tuple[torch.Tensor
     return (m_e - m_p)[0], (s_e - s_p)[0]
 
 
+POSTURE_FRAMES = 20  # frames over which a motion's channels are taken to be correlated (a second: about one step)
+
+
+def posture_shift(example: torch.Tensor, pair: torch.Tensor) -> torch.Tensor:
+    """Where the example holds its body against its neutral pair, both normalised ``(T, D)`` on one path: the
+    time-mean of ``example - pair`` over the body channels ``(C,)``, each shrunk by how sure it is,
+    ``m^2 / (m^2 + se^2)`` with ``se`` the mean's standard error (the difference's spread over time, about one
+    independent sample per :data:`POSTURE_FRAMES`). An offset held all along is kept; one that a few steps out
+    of phase with the pair make up (the feet's forward places in a short walk) is dropped."""
+    if example.ndim != 2 or example.shape != pair.shape or example.shape[-1] != FEATURES.dim:
+        raise ValueError(f"posture_shift: expected example and pair (T, {FEATURES.dim}) alike, got "
+                         f"{tuple(example.shape)} and {tuple(pair.shape)}")
+    d = (example - pair)[:, STAT_CHANNELS.to(example.device)]
+    mean = d.mean(0)
+    se2 = d.var(0, unbiased=False) / max(1.0, d.shape[0] / POSTURE_FRAMES)
+    return mean * mean ** 2 / (mean ** 2 + se2).clamp_min(1e-12)
+
+
 def neutral_shift(example: torch.Tensor, neutral: list[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor]:
     """What the example ``(T, D)`` changes against neutral clips of its action (normalised ``(T_i, D)``, their
     statistics averaged): ``(mean shift (C,), log-std shift (C,))``."""

@@ -149,10 +149,9 @@ class OnTheFly:
         key = "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
         if key not in self.shared:
             from transfer.learn import neutral_pair
-            from transfer.style_losses import style_shift
+            from transfer.style_losses import posture_shift
 
-            pair = neutral_pair(self.m, style_example, self.learned)
-            self.shared[key] = style_shift(style_example, pair)[0]
+            self.shared[key] = posture_shift(style_example, neutral_pair(self.m, style_example, self.learned))
         return self.shared[key]
 
 

@@ -52,11 +52,11 @@ VARIANTS = {
     "ours-pp02-dir1": {"lambda_p": 0.2, "lambda_dir": 1.0},
     # 2026-12-05: the direction of the statistics change (word-free, not the encoder's space)
     "ours-statdir1": {"lambda_stat_dir": 1.0},
-    # ... and the example's posture change at apply (transfer.apply.match_posture)
-    "ours-posture05": {"posture": 0.5},
-    "ours-posture1": {"posture": 1.0},
+    # ... and the example's posture change at apply (transfer.apply.match_posture; 0.5 the default since then)
+    "ours-no-posture": {"posture": 0.0},
     "ours-posture03": {"posture": 0.3},
     "ours-posture07": {"posture": 0.7},
+    "ours-posture1": {"posture": 1.0},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
@@ -73,6 +73,7 @@ ALIASES = {
     "ours-pp01-dir2": "ours",
     "ours-diff-no-pp": "ours-no-pp",
     "ours-diff-k600": "ours-k600",
+    "ours-posture05": "ours",
 }
 
 
