@@ -48,8 +48,8 @@ def judge_features(raw: torch.Tensor, fps: float = CANONICAL.fps) -> torch.Tenso
 class HandJudge:
     """Multinomial logistic regression over standardised :func:`judge_features`; ``classes`` are style names."""
 
-    def __init__(self, classes: Sequence[str], mean: torch.Tensor, std: torch.Tensor, weight: torch.Tensor,
-                 bias: torch.Tensor):
+    def __init__(self, classes: Sequence[str], mean: torch.Tensor, std: torch.Tensor, weight: torch.Tensor | None,
+                 bias: torch.Tensor | None):
         self.classes, self.mean, self.std, self.weight, self.bias = list(classes), mean, std, weight, bias
 
     @classmethod
@@ -60,8 +60,8 @@ class HandJudge:
             raise ValueError(f"HandJudge.fit: expected feats (N, F) and N labels, got {tuple(feats.shape)} and {len(labels)}")
         classes = list(classes)
         y = torch.tensor([classes.index(s) for s in labels])
-        mean, std = feats.mean(0), feats.std(0).clamp_min(1e-6)
-        z = ((feats - mean) / std).double()
+        judge = cls(classes, feats.mean(0), feats.std(0).clamp_min(1e-6), None, None)
+        z = judge.standardize(feats).double()
         w = torch.zeros(z.shape[1], len(classes), dtype=torch.float64, requires_grad=True)
         b = torch.zeros(len(classes), dtype=torch.float64, requires_grad=True)
         opt = torch.optim.LBFGS([w, b], max_iter=iterations, line_search_fn="strong_wolfe")
@@ -73,7 +73,8 @@ class HandJudge:
             return loss
 
         opt.step(closure)
-        return cls(classes, mean, std, w.detach().float(), b.detach().float())
+        judge.weight, judge.bias = w.detach().float(), b.detach().float()
+        return judge
 
     def standardize(self, feats: torch.Tensor) -> torch.Tensor:
         return (feats - self.mean) / self.std

@@ -114,6 +114,8 @@ class OnTheFly:
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
+            if learned.posture_shift is not None:  # drawn while learning: _posture need not draw the pair again
+                self.shared.setdefault(self._posture_key(style_example), learned.posture_shift)
             self.progress(f"learned {style_label!r} from a {content_label} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
         model, seconds, iterations = self.shared[key]
@@ -142,12 +144,15 @@ class OnTheFly:
         return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
                                     self.strength, self.seed, posture_shift=self._posture(style_example))
 
+    def _posture_key(self, style_example: torch.Tensor) -> str:
+        return "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
+
     def _posture(self, style_example: torch.Tensor) -> torch.Tensor | None:
         """The example's time-mean change against its neutral pair (drawn as learning draws it), for ``posture``."""
         if self.config.posture <= 0:
             return None
-        key = "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
-        if key not in self.shared:
+        key = self._posture_key(style_example)
+        if key not in self.shared:  # a style from a cache of before: its pair drawn again
             from transfer.learn import neutral_pair
             from transfer.style_losses import posture_shift
 
