@@ -125,3 +125,29 @@ def guard_limbs(motion: Motion, content_places: torch.Tensor, example_places: to
 def _ankles(spec: CanonicalSpec) -> tuple[str, ...]:
     """The ankle joints' names (the legs' ends): their places move only horizontally."""
     return tuple(spec.skeleton.names[ankle] for _, _, ankle in spec.legs)
+
+
+HANDS = ("Hand_L", "Hand_R")
+REACH_CHUNK = 4096  # content frames compared with the example at a time: bounds the distance table of a long take
+
+
+def hand_reach(content: torch.Tensor, example: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """How far each hand of ``content`` is, frame by frame, from every place the same hand takes in
+    ``example`` (both raw features on the canonical skeleton, ``(T, D)`` and ``(T', D)``; positions in the hips'
+    facing frame) -> ``(T, 2)`` metres, left then right. Small where the content holds its hands as the example
+    ever does (walks against a walk: under 0.2 m); large where it does what the example never does (hands raised
+    over the head against a walk: 0.5-0.8 m)."""
+    for name, f in (("content", content), ("example", example)):
+        if f.ndim != 2 or f.shape[1] != FEATURES.dim or f.shape[0] < 1:
+            raise ValueError(f"hand_reach: expected {name} raw features (T, {FEATURES.dim}), got {tuple(f.shape)}")
+    rows = [spec.skeleton.names.index(n) - 1 for n in HANDS]
+
+    def hands(f: torch.Tensor) -> torch.Tensor:  # (T, 2, 3)
+        return f[:, FEATURES.positions].reshape(f.shape[0], spec.num_joints - 1, 3)[:, rows].float()
+
+    places = hands(example).transpose(0, 1)  # (2, T', 3)
+    out = []
+    for a in range(0, content.shape[0], REACH_CHUNK):
+        c = hands(content[a:a + REACH_CHUNK]).transpose(0, 1)  # (2, t, 3)
+        out.append(torch.cdist(c, places, compute_mode="donot_use_mm_for_euclid_dist").amin(-1).T)  # (t, 2)
+    return torch.cat(out)

@@ -56,6 +56,16 @@ class FeatureSpec:
     def dim(self) -> int:
         return self.contacts.stop
 
+    def joint_channels(self, joints: list[int]) -> list[int]:
+        """The channels of the given joints (indices into the skeleton): their root-relative positions (joints
+        after the root; the root has none) and their 6D rotations, in that order."""
+        bad = [j for j in joints if not 0 <= j < self.num_joints]
+        if bad:
+            raise ValueError(f"joint_channels: expected joints in 0..{self.num_joints - 1}, got {bad}")
+        pos = [self.positions.start + 3 * (j - 1) + k for j in joints if j > 0 for k in range(3)]
+        rot = [self.rotations.start + 6 * j + k for j in joints for k in range(6)]
+        return pos + rot
+
 
 FEATURES = FeatureSpec(CANONICAL.num_joints)
 

@@ -158,3 +158,60 @@ def test_limb_guard_is_a_validated_apply_field_and_old_style_files_get_the_defau
             validate_config({"limb_guard": bad})
     with pytest.raises(ValueError, match="from 0.0 to 1.0"):
         check_config_value("limb_guard", 2.0)
+
+
+def test_joint_channels_are_the_joints_positions_then_rotations():
+    from motioncore.representation import FEATURES
+
+    assert FEATURES.joint_channels([0]) == list(range(FEATURES.rotations.start, FEATURES.rotations.start + 6))
+    hand = CANONICAL.skeleton.index("Hand_L")
+    ch = FEATURES.joint_channels([hand])
+    assert ch[:3] == [FEATURES.positions.start + 3 * (hand - 1) + k for k in range(3)]
+    assert ch[3:] == [FEATURES.rotations.start + 6 * hand + k for k in range(6)]
+    with pytest.raises(ValueError, match="expected joints in"):
+        FEATURES.joint_channels([CANONICAL.num_joints])
+
+
+def _hands_raised(feats: torch.Tensor, side: str, lift: float, frames: slice) -> torch.Tensor:
+    """``feats`` with one hand's position channel ``lift`` metres higher on ``frames``."""
+    from motioncore.representation import FEATURES
+
+    out = feats.clone()
+    hand = CANONICAL.skeleton.index(f"Hand_{side}")
+    out[frames, FEATURES.positions.start + 3 * (hand - 1) + 1] += lift
+    return out
+
+
+def test_hand_reach_is_zero_against_itself_and_the_lift_against_a_raised_copy():
+    from motioncore.limbs import hand_reach
+
+    feats = encode(random_motion(seconds=3, seed=8, amplitude=0.2))
+    assert torch.allclose(hand_reach(feats, feats), torch.zeros(feats.shape[0], 2), atol=1e-5)
+    raised = _hands_raised(feats, "L", 2.0, slice(None))  # far above anything the example does
+    reach = hand_reach(raised, feats)
+    assert float(reach[:, 0].min()) > 1.5 and float(reach[:, 1].max()) < 1e-5
+    with pytest.raises(ValueError, match="expected example raw features"):
+        hand_reach(feats, feats[:, :10])
+
+
+def test_an_arm_doing_what_the_example_never_does_keeps_the_content_and_the_rest_keeps_the_style():
+    from motioncore.representation import FEATURES
+    from transfer.apply import arm_gate, gate_arms
+
+    example = encode(random_motion(seconds=4, seed=9, amplitude=0.2))
+    content = _hands_raised(example, "R", 2.0, slice(25, 60))  # the right hand far up for 1.75 s
+    w = arm_gate(content, example, 0.3)
+    assert w.shape == (content.shape[0], 2)
+    assert torch.allclose(w[:, 0], torch.ones(content.shape[0]))  # the left hand: where the example holds it
+    assert float(w[35:50, 1].max()) < 0.02 and float(w[:10, 1].min()) > 0.99 and float(w[75:, 1].min()) > 0.99
+    styled = content + 0.1 * torch.randn(content.shape, generator=torch.Generator().manual_seed(0))
+    out = gate_arms(styled, content, w)
+    right = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_R") for n in ("Shoulder", "UpperArm", "LowerArm", "Hand")])
+    rest = [c for c in range(FEATURES.dim) if c not in right]
+    assert torch.equal(out[:, rest], styled[:, rest])  # the left arm, the body and the legs keep the style
+    assert torch.allclose(out[40, right], content[40, right], atol=0.01)  # the raised arm keeps the content
+    assert torch.allclose(out[5, right], styled[5, right], atol=1e-4)
+    with pytest.raises(ValueError, match="expected a radius above 0"):
+        arm_gate(content, example, 0.0)
+    with pytest.raises(ValueError, match="weights"):
+        gate_arms(styled, content, w[:, :1])

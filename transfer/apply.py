@@ -128,13 +128,16 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
 @torch.no_grad()
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
-                         window: int = 80, overlap: int = 20, posture_shift: torch.Tensor | None = None) -> torch.Tensor:
+                         window: int = 80, overlap: int = 20, posture_shift: torch.Tensor | None = None,
+                         example: torch.Tensor | None = None) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
     ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
     crossfaded over 20. ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
-    above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). Runs on the
+    above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). ``example``
+    (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
+    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). Runs on the
     models' device (``model`` and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
     device = model_device(model)
@@ -148,7 +151,44 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     out = crossfade(chunks, starts, x.shape[0])
     if posture_shift is not None and config.posture > 0:
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
+    if example is not None and config.arm_gate > 0:
+        out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
     return out.to(out_device)
+
+
+ARM_GATE_WIDTH = 0.2  # metres over which an arm's share of the style falls from all to none (arm_gate)
+ARM_GATE_SMOOTHING = 5.0  # frames: Gaussian sigma of the gate over time, so an arm eases in and out of the style
+
+
+def arm_gate(content: torch.Tensor, example: torch.Tensor, radius: float) -> torch.Tensor:
+    """How much of the style each arm of ``content`` takes, frame by frame: all while its hand is within
+    ``radius`` metres of a place the style ``example``'s hand ever takes (:func:`motioncore.limbs.hand_reach`;
+    both raw features, ``(T, D)`` and ``(T', D)``), none past ``radius + ARM_GATE_WIDTH``, smoothed over time ->
+    ``(T, 2)`` in [0, 1], left then right. A style learned from a walk says nothing of how to raise the hands."""
+    from motioncore.limbs import hand_reach
+    from transfer.edit import smooth_time
+
+    if radius <= 0:
+        raise ValueError(f"arm_gate: expected a radius above 0, got {radius}")
+    w = (1 - (hand_reach(content, example) - radius) / ARM_GATE_WIDTH).clamp(0, 1)
+    return smooth_time(w[None], ARM_GATE_SMOOTHING)[0].clamp(0, 1)
+
+
+def gate_arms(out: torch.Tensor, content: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
+    """``out (T, D)``, stylised from ``content (T, D)`` (features, normalised or not alike), with each arm's
+    channels (shoulder to hand, positions and rotations) kept ``weights (T, 2)`` of the style's change (left,
+    right; :func:`arm_gate`) and the rest taken back to the content's."""
+    from motioncore.skeleton import CANONICAL
+
+    if out.shape != content.shape or weights.shape != (out.shape[0], 2):
+        raise ValueError(f"gate_arms: expected out and content (T, D) alike and weights (T, 2), got "
+                         f"{tuple(out.shape)}, {tuple(content.shape)}, {tuple(weights.shape)}")
+    out = out.clone()
+    for side, w in zip("LR", weights.T.to(out)):
+        joints = [CANONICAL.skeleton.index(f"{n}_{side}") for n in ("Shoulder", "UpperArm", "LowerArm", "Hand")]
+        ch = FEATURES.joint_channels(joints)
+        out[:, ch] = content[:, ch] + w[:, None] * (out[:, ch] - content[:, ch])
+    return out
 
 
 def match_posture(out: torch.Tensor, content: torch.Tensor, posture_shift: torch.Tensor, weight: float,
@@ -240,7 +280,7 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
         detected = reading.describe()
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
     out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
-                               neutral_text, posture_shift=style.posture_shift)
+                               neutral_text, posture_shift=style.posture_shift, example=style.example)
     out = bundle.denormalize(out, inplace=True)
     p0 = content_motion.global_positions()[:1].double()
     raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),

@@ -320,6 +320,8 @@ def cmd_learn(args) -> None:
         apply_config = replace(apply_config, limb_guard=args.limb_guard)
     if args.posture is not None:
         apply_config = replace(apply_config, posture=args.posture)
+    if args.arm_gate is not None:
+        apply_config = replace(apply_config, arm_gate=args.arm_gate)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
@@ -740,6 +742,10 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--posture", type=_style_option("posture"), metavar="0-1",
                     help="at apply, how far each joint's mean place follows the example's (against its neutral pair) "
                          f"rather than the style model's change (default: {ApplyConfig.posture}; 0: off)")
+    lr.add_argument("--arm-gate", type=_style_option("arm_gate"), metavar="METRES",
+                    help="at apply, an arm whose hand is further than this from every place the example's hand takes "
+                         "(hands raised where the example walks) keeps the content's motion, easing in over 0.2 m "
+                         f"(default: {ApplyConfig.arm_gate}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")

@@ -142,7 +142,8 @@ class OnTheFly:
 
         model = self._model(style_example, style_label)
         return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
-                                    self.strength, self.seed, posture_shift=self._posture(style_example))
+                                    self.strength, self.seed, posture_shift=self._posture(style_example),
+                                    example=self.data.denormalize(style_example))
 
     def _posture_key(self, style_example: torch.Tensor) -> str:
         return "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
@@ -153,10 +154,11 @@ class OnTheFly:
             return None
         key = self._posture_key(style_example)
         if key not in self.shared:  # a style from a cache of before: its pair drawn again
-            from transfer.learn import neutral_pair
+            from transfer.learn import in_data_range, neutral_pair
             from transfer.style_losses import posture_shift
 
-            self.shared[key] = posture_shift(style_example, neutral_pair(self.m, style_example, self.learned))
+            example = in_data_range(style_example)[0]  # as learning takes it
+            self.shared[key] = posture_shift(example, neutral_pair(self.m, style_example, self.learned))
         return self.shared[key]
 
 

@@ -57,6 +57,9 @@ VARIANTS = {
     "ours-posture03": {"posture": 0.3},
     "ours-posture07": {"posture": 0.7},
     "ours-posture1": {"posture": 1.0},
+    # ... and an arm doing what the example's never does keeps the content's motion (transfer.apply.arm_gate)
+    "ours-arm03": {"arm_gate": 0.3},
+    "ours-arm04": {"arm_gate": 0.4},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
