@@ -36,29 +36,6 @@ from transfer.style_losses import (
     style_shift,
 )
 
-FOREIGN_MEAN = 8.0  # normalised units: beyond it a channel's time-mean is no training clip's (the Bandai val and test
-# clips' largest is 5.2; a foreign rig's retargeted shoulders and forearms sit at 90-100: docs/RESULTS.md)
-
-
-def in_data_range(example: torch.Tensor) -> tuple[torch.Tensor, int]:
-    """A normalised example ``(T, D)`` with each body channel (:data:`transfer.style_losses.STAT_CHANNELS`) whose
-    time-mean lies beyond ``FOREIGN_MEAN`` re-centred on the training data's mean (0), its motion kept; and how many
-    channels that was. A foreign skeleton's retargeted rest pose can hold a joint's rotation channels where no
-    training clip does (a twist about the bone that the joint positions do not show): that is the rig, not the
-    style, and learning would otherwise copy it as the example's posture."""
-    from transfer.style_losses import STAT_CHANNELS
-
-    if example.ndim != 2 or example.shape[1] != FEATURES.dim:
-        raise ValueError(f"in_data_range: expected an example (T, {FEATURES.dim}), got {tuple(example.shape)}")
-    ch = STAT_CHANNELS.to(example.device)
-    mean = example[:, ch].mean(0)
-    far = mean.abs() > FOREIGN_MEAN
-    if not bool(far.any()):
-        return example, 0
-    out = example.clone()
-    out[:, ch[far]] -= mean[far]
-    return out, int(far.sum())
-
 
 def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
     """``count`` random starts of ``window``-frame windows in ``n`` frames (all 0 when the clip is no longer)."""
@@ -87,13 +64,11 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
     t0 = time.time()
     prior, motion_encoder, text_encoder, scheduler = bundle.prior, bundle.motion_encoder, bundle.text_encoder, bundle.scheduler
     device = model_device(prior)
-    example, recentred = in_data_range(example.to(device))
+    example = example.to(device)
     gen = torch.Generator().manual_seed(config.seed)
     torch.manual_seed(config.seed)
     neutral_text = content_text if content_text.startswith("a person") else caption(content_text, None)
     say = progress or (lambda msg: None)
-    if recentred:
-        say(f"{recentred} channel(s) of the example re-centred: held where no training clip holds them (a foreign rig's rest pose)")
 
     if config.pair_generation:
         say("generating the style-neutral pair")
@@ -185,7 +160,6 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         "stopped_by": stopped_by,
         "seconds": round(time.time() - t0, 1),
         "example_frames": int(example.shape[0]),
-        "recentred_channels": recentred,  # the example's channels held where no training clip holds them (in_data_range)
         "loss_rec": [float(f"{h[0]:.5g}") for h in history],
         "loss_s": [float(f"{h[1]:.5g}") for h in history],
         "base_model_sha256": None,  # the prior's file, recorded where a style is learned from a file to be shared
@@ -211,8 +185,7 @@ def neutral_pair(bundle, example: torch.Tensor, config: LearnConfig, content_tex
     neutral_text = content_text if content_text.startswith("a person") else caption(content_text, None)
     device = model_device(bundle.prior)
     torch.manual_seed(config.seed)
-    example = in_data_range(example.to(device))[0]
-    return _pair(bundle, example, neutral_text, config, torch.Generator().manual_seed(config.seed)).cpu()
+    return _pair(bundle, example.to(device), neutral_text, config, torch.Generator().manual_seed(config.seed)).cpu()
 
 
 def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:

@@ -174,7 +174,7 @@ def validate_meta(meta) -> dict:
     validate_config(meta.get("config", {}))
     rank = meta.get("rank", 8)
     check_value("rank", rank, int, 1, MAX_RANK)
-    for key in ("iterations", "iterations_planned", "example_frames", "recentred_channels"):
+    for key in ("iterations", "iterations_planned", "example_frames"):
         if key in meta:
             check_value(key, meta[key], int, 0, 10**7)
     tempo = meta.get("tempo")

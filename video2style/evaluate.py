@@ -154,11 +154,10 @@ class OnTheFly:
             return None
         key = self._posture_key(style_example)
         if key not in self.shared:  # a style from a cache of before: its pair drawn again
-            from transfer.learn import in_data_range, neutral_pair
+            from transfer.learn import neutral_pair
             from transfer.style_losses import posture_shift
 
-            example = in_data_range(style_example)[0]  # as learning takes it
-            self.shared[key] = posture_shift(example, neutral_pair(self.m, style_example, self.learned))
+            self.shared[key] = posture_shift(style_example, neutral_pair(self.m, style_example, self.learned))
         return self.shared[key]
 
 
