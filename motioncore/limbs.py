@@ -31,9 +31,13 @@ def limb_places(feats: torch.Tensor, spec: CanonicalSpec = CANONICAL) -> torch.T
     normalised) model features on the canonical skeleton -> ``(4, 3)`` metres."""
     if feats.ndim != 2 or feats.shape[1] != FEATURES.dim:
         raise ValueError(f"limb_places: expected raw features (T, {FEATURES.dim}), got {tuple(feats.shape)}")
+    return _joint_positions(feats, LIMBS, spec).mean(0)
+
+
+def _joint_positions(feats: torch.Tensor, names: tuple[str, ...], spec: CanonicalSpec) -> torch.Tensor:
+    """The facing-frame positions ``(T, len(names), 3)`` of the named joints in raw features ``(T, D)``."""
     pos = feats[:, FEATURES.positions].reshape(feats.shape[0], spec.num_joints - 1, 3)  # joints 1.. (root excluded)
-    rows = [spec.skeleton.names.index(n) - 1 for n in LIMBS]
-    return pos[:, rows].mean(0)
+    return pos[:, [spec.skeleton.names.index(n) - 1 for n in names]]
 
 
 def _facing(gpos: torch.Tensor, spec: CanonicalSpec) -> tuple[torch.Tensor, torch.Tensor]:
@@ -140,14 +144,9 @@ def hand_reach(content: torch.Tensor, example: torch.Tensor, spec: CanonicalSpec
     for name, f in (("content", content), ("example", example)):
         if f.ndim != 2 or f.shape[1] != FEATURES.dim or f.shape[0] < 1:
             raise ValueError(f"hand_reach: expected {name} raw features (T, {FEATURES.dim}), got {tuple(f.shape)}")
-    rows = [spec.skeleton.names.index(n) - 1 for n in HANDS]
-
-    def hands(f: torch.Tensor) -> torch.Tensor:  # (T, 2, 3)
-        return f[:, FEATURES.positions].reshape(f.shape[0], spec.num_joints - 1, 3)[:, rows].float()
-
-    places = hands(example).transpose(0, 1)  # (2, T', 3)
+    places = _joint_positions(example, HANDS, spec).float().transpose(0, 1)  # (2, T', 3)
     out = []
     for a in range(0, content.shape[0], REACH_CHUNK):
-        c = hands(content[a:a + REACH_CHUNK]).transpose(0, 1)  # (2, t, 3)
+        c = _joint_positions(content[a:a + REACH_CHUNK], HANDS, spec).float().transpose(0, 1)  # (2, t, 3)
         out.append(torch.cdist(c, places, compute_mode="donot_use_mm_for_euclid_dist").amin(-1).T)  # (t, 2)
     return torch.cat(out)

@@ -178,7 +178,7 @@ def _hands_raised(feats: torch.Tensor, side: str, lift: float, frames: slice) ->
 
     out = feats.clone()
     hand = CANONICAL.skeleton.index(f"Hand_{side}")
-    out[frames, FEATURES.positions.start + 3 * (hand - 1) + 1] += lift
+    out[frames, FEATURES.joint_channels([hand])[1]] += lift  # its height
     return out
 
 
@@ -196,7 +196,7 @@ def test_hand_reach_is_zero_against_itself_and_the_lift_against_a_raised_copy():
 
 def test_an_arm_doing_what_the_example_never_does_keeps_the_content_and_the_rest_keeps_the_style():
     from motioncore.representation import FEATURES
-    from transfer.apply import arm_gate, gate_arms
+    from transfer.apply import ARM_JOINTS, arm_gate, gate_arms
 
     example = encode(random_motion(seconds=4, seed=9, amplitude=0.2))
     content = _hands_raised(example, "R", 2.0, slice(25, 60))  # the right hand far up for 1.75 s
@@ -206,7 +206,7 @@ def test_an_arm_doing_what_the_example_never_does_keeps_the_content_and_the_rest
     assert float(w[35:50, 1].max()) < 0.02 and float(w[:10, 1].min()) > 0.99 and float(w[75:, 1].min()) > 0.99
     styled = content + 0.1 * torch.randn(content.shape, generator=torch.Generator().manual_seed(0))
     out = gate_arms(styled, content, w)
-    right = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_R") for n in ("Shoulder", "UpperArm", "LowerArm", "Hand")])
+    right = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_R") for n in ARM_JOINTS])
     rest = [c for c in range(FEATURES.dim) if c not in right]
     assert torch.equal(out[:, rest], styled[:, rest])  # the left arm, the body and the legs keep the style
     assert torch.allclose(out[40, right], content[40, right], atol=0.01)  # the raised arm keeps the content

@@ -158,6 +158,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
 
 ARM_GATE_WIDTH = 0.2  # metres over which an arm's share of the style falls from all to none (arm_gate)
 ARM_GATE_SMOOTHING = 5.0  # frames: Gaussian sigma of the gate over time, so an arm eases in and out of the style
+ARM_JOINTS = ("Shoulder", "UpperArm", "LowerArm", "Hand")  # an arm's joints, "_L"/"_R" after each (gate_arms)
 
 
 def arm_gate(content: torch.Tensor, example: torch.Tensor, radius: float) -> torch.Tensor:
@@ -185,7 +186,7 @@ def gate_arms(out: torch.Tensor, content: torch.Tensor, weights: torch.Tensor) -
                          f"{tuple(out.shape)}, {tuple(content.shape)}, {tuple(weights.shape)}")
     out = out.clone()
     for side, w in zip("LR", weights.T.to(out)):
-        joints = [CANONICAL.skeleton.index(f"{n}_{side}") for n in ("Shoulder", "UpperArm", "LowerArm", "Hand")]
+        joints = [CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS]
         ch = FEATURES.joint_channels(joints)
         out[:, ch] = content[:, ch] + w[:, None] * (out[:, ch] - content[:, ch])
     return out
