@@ -176,8 +176,23 @@ class _Scorer:
             "by_style": by_target(styles, content_ok, style_ok, [self.style_clf.config.classes[int(i)] for i in style_pred]),
             "by_content": {c: float(content_ok[[i for i, x in enumerate(contents) if x == c]].float().mean())
                            for c in sorted(set(contents))},
+            "content_read_as": _read_as(contents, [self.content_clf.config.classes[int(i)] for i in content_pred]),
             "skating": foot_skating_ratio([decode_positions(x.double()) for x in raw], self.fps),
         }
+
+
+def _read_as(truth: Sequence[str], read: Sequence[str]) -> dict[str, dict[str, float]]:
+    """For each true label, the share of its items read as each label, most often first."""
+    out = {}
+    for t in sorted(set(truth)):
+        reads = [r for x, r in zip(truth, read) if x == t]
+        out[t] = {r: reads.count(r) / len(reads) for r in sorted(set(reads), key=lambda r: -reads.count(r))}
+    return out
+
+
+def _misread(read_as: dict[str, float], truth: str) -> str:
+    wrong = [(r, v) for r, v in read_as.items() if r != truth]
+    return f" ({wrong[0][0]} {100 * wrong[0][1]:.0f})" if wrong else ""
 
 
 def by_target(targets: Sequence[str], content_ok: torch.Tensor, style_ok: torch.Tensor,
@@ -241,6 +256,7 @@ def run_protocol(methods: dict[str, Method], data_dir: Path, quick: bool = True,
             "sra": gen["sra"],
             "by_style": gen["by_style"],
             "by_content": gen["by_content"],
+            "content_read_as": gen["content_read_as"],
             "skating": gen["skating"],
             "contact_agreement": foot_contact_agreement([data.clip(it.content_index, normalized=False) for it in items], outputs, fps),
             **stray_summary([data.clip(it.content_index, normalized=False) for it in items],
@@ -301,6 +317,8 @@ def format_table(rows: Sequence[dict]) -> str:
                             f"{100 * r['judge_by_style'][s][0]:.0f} / {100 * r['judge_by_style'][s][1]:.0f}") + ")"
                          for s, v in r["by_style"].items())
              for r in rows if r.get("by_style")]
-    notes += [f"- {r['method']}, CRA by content (%): " + "; ".join(f"{c} {100 * v:.0f}" for c, v in r["by_content"].items())
+    notes += [f"- {r['method']}, CRA by content (%; the wrong reading most often): "
+              + "; ".join(f"{c} {100 * v:.0f}" + _misread(r.get("content_read_as", {}).get(c, {}), c)
+                          for c, v in r["by_content"].items())
               for r in rows if r.get("by_content")]
     return "\n".join(lines + ([""] + notes if notes else []))

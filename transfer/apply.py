@@ -59,22 +59,71 @@ class Reading:
                 f"P(styled) {self.p_styled:.2f}; {sure})")
 
 
+READ_FRAMES = 160  # the motion encoder reads at most this many frames (8 s) at once
+
+
+def _caption_similarities(motion_encoder, text_encoder, xs: torch.Tensor) -> torch.Tensor:
+    """Cosine similarities ``(N, C * S)`` of normalised motions ``xs (N, L, D)`` to every (content, style) caption,
+    contents outer (:data:`BANDAI2_CONTENTS`, :data:`STYLES`); made on the CPU."""
+    emb = text_encoder.encode([caption(c, s) for c in BANDAI2_CONTENTS for s in STYLES])
+    with torch.no_grad():
+        z = motion_encoder(xs.to(model_device(motion_encoder))).cpu()
+    return z @ emb.T
+
+
 def read_motion(motion_encoder, text_encoder, x: torch.Tensor) -> Reading:
     """The :class:`Reading` of a normalised motion ``(T, D)`` (its first 8 s) in the motion encoder's space
     (the encoder runs on its own device; the reading is made on the CPU)."""
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"read_motion: expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
-    emb = text_encoder.encode([caption(c, s) for c, s in pairs])
-    with torch.no_grad():
-        z = motion_encoder(x[None, : min(x.shape[0], 160)].to(model_device(motion_encoder)))[0].cpu()
-    sims = emb @ z
+    sims = _caption_similarities(motion_encoder, text_encoder, x[None, :READ_FRAMES])[0]
     p = torch.softmax(sims / ENCODER_TEMPERATURE, 0).reshape(len(BANDAI2_CONTENTS), len(STYLES))
     p_content, p_style = p.sum(1), p.sum(0)
     ci, si = int(p_content.argmax()), int(p_style.argmax())
     order = sims.argsort(descending=True).tolist()[:3]
     return Reading(BANDAI2_CONTENTS[ci], STYLES[si], float(p_content[ci]), float(1 - p_style[STYLES.index("normal")]),
                    float(sims.max()), tuple((caption(*pairs[i]), float(sims[i])) for i in order))
+
+
+def content_probabilities(motion_encoder, text_encoder, x: torch.Tensor) -> torch.Tensor:
+    """How surely the motion encoder reads each Bandai-2 content in normalised motion ``x (T, D)``: the softmax mass
+    of its captions (all styles), averaged over windows of :data:`READ_FRAMES` covering the clip -> ``(C,)`` in
+    :data:`BANDAI2_CONTENTS`'s order."""
+    if x.ndim != 2 or x.shape[1] != FEATURES.dim:
+        raise ValueError(f"content_probabilities: expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
+    length = min(READ_FRAMES, x.shape[0])
+    windows = torch.stack([x[s:s + length] for s in window_starts(x.shape[0], length, 0)])
+    sims = _caption_similarities(motion_encoder, text_encoder, windows)
+    p = torch.softmax(sims / ENCODER_TEMPERATURE, -1).reshape(len(windows), len(BANDAI2_CONTENTS), len(STYLES))
+    return p.sum(-1).mean(0)
+
+
+CONTENT_KEEP_SHARES = (0.75, 0.5, 0.25)  # shares of the style's change tried in turn when the action is lost
+
+
+def keep_content(motion_encoder, text_encoder, out: torch.Tensor, content: torch.Tensor,
+                 keep: float) -> tuple[torch.Tensor, float]:
+    """``out (T, D)``, stylised from ``content (T, D)`` (both normalised), with the style's change scaled down until the
+    motion encoder still reads the content's action in it: when the content is read confidently
+    (:meth:`Reading.confident`) as action ``c``, the largest share of the change in 1 and
+    :data:`CONTENT_KEEP_SHARES` whose result keeps at least ``keep`` of the content's P(``c``)
+    (:func:`content_probabilities`), else the smallest share. Returns the result and the share kept (1: unchanged;
+    a clip the encoder does not read confidently, a foreign one, is left as it is)."""
+    if out.shape != content.shape:
+        raise ValueError(f"keep_content: expected out and content alike, got {tuple(out.shape)}, {tuple(content.shape)}")
+    if not 0 < keep <= 1:
+        raise ValueError(f"keep_content: expected keep in (0, 1], got {keep}")
+    if not read_motion(motion_encoder, text_encoder, content).confident:
+        return out, 1.0
+    p_content = content_probabilities(motion_encoder, text_encoder, content)
+    c = int(p_content.argmax())
+    result = out
+    for share in (1.0, *CONTENT_KEEP_SHARES):
+        result = out if share == 1.0 else content + share * (out - content)
+        if content_probabilities(motion_encoder, text_encoder, result)[c] >= keep * p_content[c]:
+            break
+    return result, share
 
 
 WINDOW_BATCH = 64  # windows denoised together: bounds memory on long clips (a 2-hour take is ~2,000 windows)
@@ -153,6 +202,8 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
+    if config.content_keep > 0:
+        out, _ = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep)
     return out.to(out_device)
 
 

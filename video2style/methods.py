@@ -60,6 +60,9 @@ VARIANTS = {
     # ... and an arm doing what the example's never does keeps the content's motion (transfer.apply.arm_gate)
     "ours-arm03": {"arm_gate": 0.3},
     "ours-arm04": {"arm_gate": 0.4},
+    # ... and the style's change scaled down where the motion encoder no longer reads the content's action
+    "ours-keep05": {"content_keep": 0.5},
+    "ours-keep08": {"content_keep": 0.8},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed

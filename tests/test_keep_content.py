@@ -1,0 +1,74 @@
+"""The content keeper at apply (transfer.apply.keep_content): a style's change is scaled down only as far as the
+motion encoder needs to read the content's action again, and a clip the encoder does not know is left alone."""
+import pytest
+import torch
+import torch.nn.functional as F
+
+from motioncore.representation import FEATURES
+from transfer.apply import CONTENT_KEEP_SHARES, content_probabilities, keep_content
+from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
+
+N_CONTENTS = len(BANDAI2_CONTENTS)
+
+
+class _Text:
+    """Every caption of content c embeds as the c-th unit vector (one spare dimension for foreign clips)."""
+
+    def encode(self, texts):
+        index = {caption(c, s): i for i, c in enumerate(BANDAI2_CONTENTS) for s in STYLES}
+        return torch.eye(N_CONTENTS + 1)[[index[t] for t in texts]]
+
+
+class _Encoder(torch.nn.Module):
+    """Reads content 0 where channel 0 is low, content 1 where it is high; channel 1 points away from every caption."""
+
+    def forward(self, x):  # (N, L, D) -> (N, E)
+        m = torch.sigmoid(4 * x[..., 0].mean(-1))
+        z = torch.zeros(x.shape[0], N_CONTENTS + 1)
+        z[:, 0], z[:, 1], z[:, -1] = 1 - m, m, x[..., 1].mean(-1).abs()
+        return F.normalize(z, dim=-1)
+
+
+def _clip(channel0: float, channel1: float = 0.0, frames: int = 200) -> torch.Tensor:
+    x = torch.zeros(frames, FEATURES.dim)
+    x[:, 0], x[:, 1] = channel0, channel1
+    return x
+
+
+def test_the_encoder_reads_the_toy_contents():
+    p = content_probabilities(_Encoder(), _Text(), _clip(-2.0))
+    assert p.shape == (N_CONTENTS,) and p.argmax() == 0 and p[0] > 0.9
+    assert content_probabilities(_Encoder(), _Text(), _clip(2.0)).argmax() == 1
+
+
+def test_a_change_that_keeps_the_action_is_left_whole():
+    content, out = _clip(-2.0), _clip(-1.5)
+    kept, share = keep_content(_Encoder(), _Text(), out, content, 0.8)
+    assert share == 1.0 and torch.equal(kept, out)
+
+
+def test_a_change_that_loses_the_action_is_scaled_down_to_the_largest_share_that_keeps_it():
+    content, out = _clip(-2.0), _clip(2.0)  # the change turns the action into content 1
+    kept, share = keep_content(_Encoder(), _Text(), out, content, 0.8)
+    assert share in CONTENT_KEEP_SHARES and share < 1
+    assert torch.allclose(kept, content + share * (out - content))
+    p0 = content_probabilities(_Encoder(), _Text(), content)[0]
+    assert content_probabilities(_Encoder(), _Text(), kept)[0] >= 0.8 * p0
+    larger = [s for s in (1.0, *CONTENT_KEEP_SHARES) if s > share]
+    for s in larger:  # every larger share loses it
+        assert content_probabilities(_Encoder(), _Text(), content + s * (out - content))[0] < 0.8 * p0
+
+
+def test_a_clip_the_encoder_does_not_know_is_left_alone():
+    content, out = _clip(-2.0, channel1=5.0), _clip(2.0, channel1=5.0)  # far from every caption: not confident
+    kept, share = keep_content(_Encoder(), _Text(), out, content, 0.8)
+    assert share == 1.0 and torch.equal(kept, out)
+
+
+def test_bad_inputs_are_refused():
+    with pytest.raises(ValueError, match="expected out and content alike"):
+        keep_content(_Encoder(), _Text(), _clip(0.0, frames=10), _clip(0.0), 0.5)
+    with pytest.raises(ValueError, match="expected keep in"):
+        keep_content(_Encoder(), _Text(), _clip(0.0), _clip(0.0), 0.0)
+    with pytest.raises(ValueError, match="expected features"):
+        content_probabilities(_Encoder(), _Text(), torch.zeros(10, 3))
