@@ -20,12 +20,17 @@ class _Text:
 
 
 class _Encoder(torch.nn.Module):
-    """Reads content 0 where channel 0 is low, content 1 where it is high; channel 1 points away from every caption."""
+    """Reads content 0 where channel ``ch`` is low, content 1 where it is high; channel ``ch + 1`` points away from
+    every caption."""
+
+    def __init__(self, ch: int = 0):
+        super().__init__()
+        self.ch = ch
 
     def forward(self, x):  # (N, L, D) -> (N, E)
-        m = torch.sigmoid(4 * x[..., 0].mean(-1))
+        m = torch.sigmoid(4 * x[..., self.ch].mean(-1))
         z = torch.zeros(x.shape[0], N_CONTENTS + 1)
-        z[:, 0], z[:, 1], z[:, -1] = 1 - m, m, x[..., 1].mean(-1).abs()
+        z[:, 0], z[:, 1], z[:, -1] = 1 - m, m, x[..., self.ch + 1].mean(-1).abs()
         return F.normalize(z, dim=-1)
 
 
@@ -72,3 +77,29 @@ def test_bad_inputs_are_refused():
         keep_content(_Encoder(), _Text(), _clip(0.0), _clip(0.0), 0.0)
     with pytest.raises(ValueError, match="expected features"):
         content_probabilities(_Encoder(), _Text(), torch.zeros(10, 3))
+
+
+def test_apply_keeps_the_content_only_when_the_config_says_so_and_reports_the_share():
+    from dataclasses import replace
+
+    from tests.test_style import _trained_style, tiny_denoiser
+    from transfer.apply import apply_style_features
+    from transfer.bundle import MethodBundle
+    from transfer.style_config import ApplyConfig, LearnConfig
+    from transfer.style_file import style_model
+
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    encoder = _Encoder(ch=FEATURES.positions.start)  # a channel the style changes (the root's path is kept)
+    bundle = MethodBundle(prior, motion_encoder=encoder, text_encoder=_Text())
+    torch.manual_seed(0)
+    x = torch.randn(90, FEATURES.dim) * 0.1
+    x[:, FEATURES.positions.start] = -0.5
+    learned, config = LearnConfig(), ApplyConfig(style_scale=20.0)
+    assert config.content_keep == 0.0  # off by default: no report, the result as before
+    report: dict = {}
+    plain = apply_style_features(bundle, model, x, learned, config, report=report)
+    assert report == {}
+    kept = apply_style_features(bundle, model, x, learned, replace(config, content_keep=0.9), report=report)
+    expected, share = keep_content(encoder, _Text(), plain, x, 0.9)
+    assert torch.allclose(kept, expected, atol=1e-6) and report == {"content_share": share} and share < 1

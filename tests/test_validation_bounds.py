@@ -55,7 +55,7 @@ def no_learning(monkeypatch):
     ("--iterations", "100001"), ("--iterations", "1000000000"), ("--iterations", "0"), ("--iterations", "2.5"),
     ("--max-seconds", "nan"), ("--max-seconds", "inf"), ("--max-seconds", "-1"), ("--max-seconds", "1e9"),
     ("--seed", "99999999999999999999999"), ("--seed", "abc"), ("--posture", "1.5"), ("--posture", "-0.1"),
-    ("--posture", "nan"),
+    ("--posture", "nan"), ("--content-keep", "1.5"), ("--content-keep", "-0.1"), ("--arm-gate", "3"),
 ])
 def test_learn_refuses_up_front_what_a_style_file_may_not_hold(tmp_path, capsys, no_learning, option, value):
     clip = _clip(tmp_path / "c.bvh")
@@ -74,7 +74,7 @@ def test_learn_refuses_up_front_what_a_style_file_may_not_hold(tmp_path, capsys,
         validate_config({field: parsed})
 
 
-@pytest.mark.parametrize("field", ["iterations", "max_seconds", "seed", "posture"])
+@pytest.mark.parametrize("field", ["iterations", "max_seconds", "seed", "posture", "content_keep"])
 def test_the_cli_accepts_exactly_the_schema_s_range_ends(field):
     from video2style.cli import _style_option
 

@@ -178,7 +178,7 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
                          window: int = 80, overlap: int = 20, posture_shift: torch.Tensor | None = None,
-                         example: torch.Tensor | None = None) -> torch.Tensor:
+                         example: torch.Tensor | None = None, report: dict | None = None) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
@@ -186,8 +186,10 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     crossfaded over 20. ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
     above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). ``example``
     (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
-    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). Runs on the
-    models' device (``model`` and the prior on one); the result is on ``x``'s."""
+    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). With ``config.content_keep`` above 0
+    the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`);
+    the share kept goes to ``report["content_share"]`` when a dict is given. Runs on the models' device (``model``
+    and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
     device = model_device(model)
     out_device, x = x.device, x.to(device)
@@ -203,7 +205,9 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
     if config.content_keep > 0:
-        out, _ = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep)
+        out, share = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep)
+        if report is not None:
+            report["content_share"] = share
     return out.to(out_device)
 
 
@@ -321,7 +325,7 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
 
     ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
     auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
-    what was decided (``detected``, ``neutralized``) with the foot-skating ratios before and after cleanup and of
+    what was decided (``detected``, ``neutralized``, and ``content_share`` where the content keeper ran) with the foot-skating ratios before and after cleanup and of
     the content itself. Runs on ``model``'s device (the bundle's models there too); the motion and the result are
     on the CPU."""
     learned, config = style.configs()
@@ -331,12 +335,13 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
                                                 bundle.normalize(encode(content_motion)), neutralize)
         detected = reading.describe()
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
+    report: dict = {}
     out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
-                               neutral_text, posture_shift=style.posture_shift, example=style.example)
+                               neutral_text, posture_shift=style.posture_shift, example=style.example, report=report)
     out = bundle.denormalize(out, inplace=True)
     p0 = content_motion.global_positions()[:1].double()
     raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),
                                                                    start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
     result, ratios = cleanup_feet_measured(raw, content_motion)  # the content's own ratio: a slide it passes on
     return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
-                    "skating_content": motion_skating(content_motion)}
+                    "skating_content": motion_skating(content_motion), **report}

@@ -322,6 +322,8 @@ def cmd_learn(args) -> None:
         apply_config = replace(apply_config, posture=args.posture)
     if args.arm_gate is not None:
         apply_config = replace(apply_config, arm_gate=args.arm_gate)
+    if args.content_keep is not None:
+        apply_config = replace(apply_config, content_keep=args.content_keep)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
     check_outputs([("-o", out)], [("the input", args.input), ("the --joint-map", args.joint_map)])
     _free_space(out, STYLE_FILE_BYTES, "-o")
@@ -409,6 +411,9 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
                  f"{100 * info['skating_after']:.1f}% after IK (the content clip: {100 * info['skating_content']:.1f}%)"
                  if "skating_after" in info else "")
         tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
+        if info.get("content_share", 1.0) < 1.0:
+            extra += (f"; style change scaled to {100 * info['content_share']:.0f}% so the action still reads as "
+                      "the content's")
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
               f"{tempo}{extra}{skate})")
         if info.get("preview_note"):
@@ -746,6 +751,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="at apply, an arm whose hand is further than this from every place the example's hand takes "
                          "(hands raised where the example walks) keeps the content's motion, easing in over 0.2 m "
                          f"(default: {ApplyConfig.arm_gate}; 0: off)")
+    lr.add_argument("--content-keep", type=_style_option("content_keep"), metavar="0-1",
+                    help="at apply, the style's change is scaled down (to 3/4, 1/2, 1/4) until the motion encoder reads "
+                         "the content's action with at least this share of its certainty on the content; clips it "
+                         f"does not know are left as they are (default: {ApplyConfig.content_keep}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
     lr.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")

@@ -63,6 +63,7 @@ VARIANTS = {
     # ... and the style's change scaled down where the motion encoder no longer reads the content's action
     "ours-keep05": {"content_keep": 0.5},
     "ours-keep08": {"content_keep": 0.8},
+    "ours-keep05-s1045": {"content_keep": 0.5, "style_scale": 1.045},  # and the scale of strength 0.55 at 0.5
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
