@@ -95,11 +95,19 @@ def test_apply_keeps_the_content_only_when_the_config_says_so_and_reports_the_sh
     torch.manual_seed(0)
     x = torch.randn(90, FEATURES.dim) * 0.1
     x[:, FEATURES.positions.start] = -0.5
-    learned, config = LearnConfig(), ApplyConfig(style_scale=20.0)
-    assert config.content_keep == 0.0  # off by default: no report, the result as before
-    report: dict = {}
+    learned, config = LearnConfig(), ApplyConfig(style_scale=20.0, content_keep=0.0)
+    report: dict = {}  # off: no report
     plain = apply_style_features(bundle, model, x, learned, config, report=report)
     assert report == {}
     kept = apply_style_features(bundle, model, x, learned, replace(config, content_keep=0.9), report=report)
     expected, share = keep_content(encoder, _Text(), plain, x, 0.9)
     assert torch.allclose(kept, expected, atol=1e-6) and report == {"content_share": share} and share < 1
+
+
+def test_with_top_a_result_still_read_first_as_the_content_s_action_passes():
+    content, out = _clip(-2.0), _clip(-0.01)  # the action still read first, but much less surely
+    p = content_probabilities(_Encoder(), _Text(), out)
+    assert p.argmax() == 0 and p[0] < 0.8 * content_probabilities(_Encoder(), _Text(), content)[0]
+    assert keep_content(_Encoder(), _Text(), out, content, 0.8)[1] < 1
+    kept, share = keep_content(_Encoder(), _Text(), out, content, 0.8, top=True)
+    assert share == 1.0 and torch.equal(kept, out)

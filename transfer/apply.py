@@ -103,12 +103,13 @@ CONTENT_KEEP_SHARES = (0.75, 0.5, 0.25)  # shares of the style's change tried in
 
 
 def keep_content(motion_encoder, text_encoder, out: torch.Tensor, content: torch.Tensor,
-                 keep: float) -> tuple[torch.Tensor, float]:
+                 keep: float, top: bool = False) -> tuple[torch.Tensor, float]:
     """``out (T, D)``, stylised from ``content (T, D)`` (both normalised), with the style's change scaled down until the
     motion encoder still reads the content's action in it: when the content is read confidently
     (:meth:`Reading.confident`) as action ``c``, the largest share of the change in 1 and
     :data:`CONTENT_KEEP_SHARES` whose result keeps at least ``keep`` of the content's P(``c``)
-    (:func:`content_probabilities`), else the smallest share. Returns the result and the share kept (1: unchanged;
+    (:func:`content_probabilities`; with ``top``, or in which ``c`` is still the most likely action), else the
+    smallest share. Returns the result and the share kept (1: unchanged;
     a clip the encoder does not read confidently, a foreign one, is left as it is)."""
     if out.shape != content.shape:
         raise ValueError(f"keep_content: expected out and content alike, got {tuple(out.shape)}, {tuple(content.shape)}")
@@ -121,7 +122,8 @@ def keep_content(motion_encoder, text_encoder, out: torch.Tensor, content: torch
     result = out
     for share in (1.0, *CONTENT_KEEP_SHARES):
         result = out if share == 1.0 else content + share * (out - content)
-        if content_probabilities(motion_encoder, text_encoder, result)[c] >= keep * p_content[c]:
+        p = content_probabilities(motion_encoder, text_encoder, result)
+        if p[c] >= keep * p_content[c] or (top and int(p.argmax()) == c):
             break
     return result, share
 
@@ -187,8 +189,9 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). ``example``
     (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
     never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). With ``config.content_keep`` above 0
-    the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`);
-    the share kept goes to ``report["content_share"]`` when a dict is given. Runs on the models' device (``model``
+    the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`;
+    a bundle without a motion encoder, a test's toy one, has none to read with); the share kept goes to
+    ``report["content_share"]`` when a dict is given. Runs on the models' device (``model``
     and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
     device = model_device(model)
@@ -204,8 +207,9 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
-    if config.content_keep > 0:
-        out, share = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep)
+    if config.content_keep > 0 and bundle.motion_encoder is not None:
+        out, share = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep,
+                                  config.content_keep_top)
         if report is not None:
             report["content_share"] = share
     return out.to(out_device)

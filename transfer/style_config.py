@@ -53,8 +53,8 @@ class ApplyConfig:
 
     apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
     # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
-    style_scale: float = 0.95  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
-    # unseen-style val split); regenerate: guidance weight
+    style_scale: float = 1.045  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
+    # val splits of both protocols with content_keep 0.5, docs/RESULTS.md "A content keeper"; 0.95 before); regenerate: guidance weight
     neutralize_step: int = 950  # apply: a styled content clip is noised this far and redrawn neutral first
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
     # of multiplying its final difference
@@ -70,8 +70,10 @@ class ApplyConfig:
     # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
     # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.apply.arm_gate); 0: off
-    content_keep: float = 0.0  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
-    # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content); 0: off
+    content_keep: float = 0.5  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
+    # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content;
+    # 0.5 chosen on the val splits, docs/RESULTS.md "A content keeper"); 0: off
+    content_keep_top: bool = False  # apply: the content keeper also lets pass a result whose most likely action is still the content's
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
@@ -88,6 +90,7 @@ CONFIG_RANGES = {
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
+    "content_keep_top": (bool, None, None),
 }
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones
