@@ -73,7 +73,8 @@ class ApplyConfig:
     content_keep: float = 0.5  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
     # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content;
     # 0.5 chosen on the val splits, docs/RESULTS.md "A content keeper"); 0: off
-    content_keep_top: bool = False  # apply: the content keeper also lets pass a result whose most likely action is still the content's
+    content_keep_top: bool = True  # apply: the content keeper also lets pass a result whose most likely action is still
+    # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were

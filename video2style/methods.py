@@ -61,11 +61,11 @@ VARIANTS = {
     "ours-arm03": {"arm_gate": 0.3},
     "ours-arm04": {"arm_gate": 0.4},
     # ... and the style's change scaled down where the motion encoder no longer reads the content's action
-    # (2026-12-05 09:00-12:00; the default since then is content_keep 0.5 with style_scale 1.045)
-    "ours-keep05": {"content_keep": 0.5, "style_scale": 0.95},
-    "ours-keep08": {"content_keep": 0.8, "style_scale": 0.95},
+    # (2026-12-05 09:00-12:00; the default since then: content_keep 0.5, content_keep_top, style_scale 1.045)
+    "ours-keep05": {"content_keep": 0.5, "content_keep_top": False, "style_scale": 0.95},
+    "ours-keep08": {"content_keep": 0.8, "content_keep_top": False, "style_scale": 0.95},
+    "ours-keep05-s1045": {"content_keep_top": False},  # a result read first as the content's action may still be scaled
     "ours-no-keep": {"content_keep": 0.0, "style_scale": 0.95},  # the default before it
-    "ours-keep-top": {"content_keep_top": True},  # ... and a result still read first as the content's action passes
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
@@ -83,7 +83,7 @@ ALIASES = {
     "ours-diff-no-pp": "ours-no-pp",
     "ours-diff-k600": "ours-k600",
     "ours-posture05": "ours",
-    "ours-keep05-s1045": "ours",
+    "ours-keep-top": "ours",
 }
 
 
