@@ -199,12 +199,12 @@ def by_target(targets: Sequence[str], content_ok: torch.Tensor, style_ok: torch.
               read_as: Sequence[str]) -> dict[str, dict]:
     """Per target style: ``{"n", "cra", "sra", "read_as": {style: share}}`` of the transfers to it (``content_ok``,
     ``style_ok``: ``(N,)`` bools; ``read_as``: the style classifier's reading of each output)."""
+    shares = _read_as(targets, read_as)
     out = {}
     for s in sorted(set(targets)):
         idx = [i for i, t in enumerate(targets) if t == s]
-        reads = [read_as[i] for i in idx]
         out[s] = {"n": len(idx), "cra": float(content_ok[idx].float().mean()), "sra": float(style_ok[idx].float().mean()),
-                  "read_as": {r: reads.count(r) / len(idx) for r in sorted(set(reads), key=lambda r: -reads.count(r))}}
+                  "read_as": shares[s]}
     return out
 
 

@@ -119,7 +119,6 @@ def keep_content(motion_encoder, text_encoder, out: torch.Tensor, content: torch
         return out, 1.0
     p_content = content_probabilities(motion_encoder, text_encoder, content)
     c = int(p_content.argmax())
-    result = out
     for share in (1.0, *CONTENT_KEEP_SHARES):
         result = out if share == 1.0 else content + share * (out - content)
         p = content_probabilities(motion_encoder, text_encoder, result)

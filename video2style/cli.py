@@ -753,7 +753,8 @@ def build_parser() -> argparse.ArgumentParser:
                          f"(default: {ApplyConfig.arm_gate}; 0: off)")
     lr.add_argument("--content-keep", type=_style_option("content_keep"), metavar="0-1",
                     help="at apply, the style's change is scaled down (to 3/4, 1/2, 1/4) until the motion encoder reads "
-                         "the content's action with at least this share of its certainty on the content; clips it "
+                         "the content's action first again, or with at least this share of its certainty on the "
+                         "content; clips it "
                          f"does not know are left as they are (default: {ApplyConfig.content_keep}; 0: off)")
     lr.add_argument("--start", type=float, help="use the input from this time on, in seconds")
     lr.add_argument("--end", type=float, help="use the input up to this time, in seconds")
