@@ -307,3 +307,52 @@ def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, star
             lrot[:, j] = quat.mul(quat.inv(parent_g), g)
             parent_g = g
     return Motion(sk, quat.normalize(lrot), by_rot.lpos, fps)
+
+
+# Joints whose bone roll is a convention of the training data, not a movement: the dataset's non-mirrored clips
+# keep their mean local rotations within 26 deg of :data:`REFERENCE_LOCAL` (val, test; 54 deg at most in train,
+# a Bandai-1 wave), videos within 30 deg, while rigs retargeted by the shortest arc (Xia, fair1) land 148-180 deg
+# off: 90 deg about the Spine, Chest and Shoulders, 180 deg about UpperLeg_R (docs/RESULTS.md, 2026-12-05).
+ROLL_CONVENTION_JOINTS = ("Spine", "Chest", "Shoulder_L", "Shoulder_R", "UpperLeg_L", "UpperLeg_R")
+ROLL_CONVENTION_DEG = 90.0
+# Leaves that keep their own turn when :func:`conform_rolls` solves a motion again (the head's nod, the wrists);
+# the toes take the reference: in the data they barely turn, and many rigs have no toe bone.
+CONFORM_KEPT_LEAVES = ("Head", "Hand_L", "Hand_R")
+
+
+def roll_deviation(motion: Motion, spec: CanonicalSpec = CANONICAL) -> float:
+    """Degrees: the largest angle, over :data:`ROLL_CONVENTION_JOINTS`, between a canonical motion's mean
+    local rotation (:func:`reference_local_rotations`) and :data:`REFERENCE_LOCAL`'s."""
+    if motion.skeleton.names != spec.skeleton.names:
+        raise ValueError("roll_deviation: expected a motion on the canonical skeleton")
+    idx = [spec.skeleton.index(n) for n in ROLL_CONVENTION_JOINTS]
+    mean = reference_local_rotations([motion], spec.skeleton)[idx]
+    ref = default_reference(spec.skeleton)[idx]
+    return float(torch.rad2deg(quat.angle(quat.mul(quat.inv(ref), mean))).max())
+
+
+def conform_rolls(motion: Motion, spec: CanonicalSpec = CANONICAL, force: bool | None = None) -> Motion:
+    """A canonical motion with its bones' rolls in the training data's convention, joint positions unchanged.
+
+    A foreign rig retargeted by the shortest arc (:func:`motioncore.retarget.to_canonical`) puts the right
+    joints in the right places, but each bone's roll about itself, which positions cannot show, is its own
+    rig's: the rotation features then lie far outside anything the models were trained on. When the motion
+    is off the convention (:func:`roll_deviation` above :data:`ROLL_CONVENTION_DEG`; ``force`` True/False
+    decides instead), its rotations are solved again from its joint positions as a video's are
+    (:func:`fit_positions`: reference rolls, the data's knee and elbow hinges), and each leaf of
+    :data:`CONFORM_KEPT_LEAVES` keeps its own turn relative to its parent, carried into the parent's new frame. A motion already in
+    the convention (the dataset's, a video's, one written on the canonical skeleton) is returned as it is.
+    """
+    if force is False or (force is None and roll_deviation(motion, spec) <= ROLL_CONVENTION_DEG):
+        return motion
+    sk = spec.skeleton
+    grot, gpos = fk(motion.lrot, motion.lpos, sk.parents)
+    fitted = fit_positions(gpos, motion.fps, spec)
+    grot_fit, _ = fk(fitted.lrot, fitted.lpos, sk.parents)
+    lrot = fitted.lrot.clone()
+    for name in CONFORM_KEPT_LEAVES:
+        j = sk.index(name)
+        p = sk.parents[j]
+        turn = quat.mul(quat.inv(grot[:, p]), grot_fit[:, p])  # the parent's new frame in its old one
+        lrot[:, j] = quat.mul(quat.mul(quat.inv(turn), motion.lrot[:, j]), turn)
+    return Motion(sk, quat.unroll(lrot, dim=0), fitted.lpos, motion.fps)

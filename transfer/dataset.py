@@ -25,6 +25,7 @@ from tqdm import tqdm
 
 from motioncore.bvh import BvhError, parse_bvh
 from motioncore.files import atomic_output, atomic_write_text
+from motioncore.ik_fit import conform_rolls
 from motioncore.motion import mirror, resample
 from motioncore.representation import FEATURES, encode
 from motioncore.retarget import make_rig, place_on_floor, to_canonical
@@ -70,7 +71,7 @@ def _canonical_features(text: str, name: str, fps: float) -> tuple[torch.Tensor,
     motion, _ = parse_bvh(text, name)
     motion = resample(motion, fps)
     rig = make_rig(motion.skeleton, motion, source=name)
-    canon = place_on_floor(to_canonical(motion, rig))
+    canon = place_on_floor(conform_rolls(to_canonical(motion, rig)))
     return encode(canon), encode(mirror(canon))
 
 

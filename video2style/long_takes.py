@@ -26,6 +26,7 @@ import torch
 
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.cleanup import cleanup_feet
+from motioncore.ik_fit import ROLL_CONVENTION_DEG, conform_rolls, roll_deviation
 from motioncore.motion import Motion, resample_span, resampled_frames
 from motioncore.representation import FEATURES, encode, facing_angle
 from motioncore.retarget import (
@@ -120,6 +121,7 @@ class _Take:
     def __init__(self, frames: BvhFrames, rig, n: int):
         self.frames, self.rig, self.n = frames, rig, n
         self.shift = None  # place_on_floor's, once known
+        self.conform = None  # whether the take's bone rolls are solved again (conform_rolls), decided on its first span
 
     def source_range(self, a: int, b: int) -> tuple[int, int]:
         """The file frames canonical frames ``a..b-1`` are interpolated from."""
@@ -132,6 +134,9 @@ class _Take:
         s0, s1 = self.source_range(a, b)
         m = resample_span(self.frames[s0:s1], CANONICAL.fps, a, b, first=s0, total=self.frames.num_frames)
         canon = to_canonical(m, self.rig)
+        if self.conform is None:
+            self.conform = roll_deviation(canon) > ROLL_CONVENTION_DEG
+        canon = conform_rolls(canon, force=self.conform)
         if self.shift is not None:
             lpos = canon.lpos.clone()
             lpos[:, 0, 1] -= self.shift

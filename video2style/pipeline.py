@@ -9,6 +9,7 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
+from motioncore.ik_fit import conform_rolls
 from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
@@ -114,7 +115,7 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     if span != (None, None):
         motion = trim(motion, span, str(path))
-    canon = place_on_floor(to_canonical(resample(motion, CANONICAL.fps), rig))
+    canon = place_on_floor(conform_rolls(to_canonical(resample(motion, CANONICAL.fps), rig)))
     if canon.num_frames < 10:
         raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
     return Clip(path, canon, rig, layout, motion)
