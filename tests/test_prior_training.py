@@ -154,3 +154,9 @@ def test_fk_weight_is_a_stage_a_finished_run_may_resume_with_and_its_log_gains_t
     with pytest.raises(ValueError, match="cannot resume with different settings.*width"):
         train_prior(cache, out, PriorTrainConfig(width=64), max_minutes=5, max_steps=6, explicit={"width": 64},
                     progress=False)
+    # a new learning-rate schedule is a stage too: the rate of step 6 is the new one's
+    schedule = {"lr": 5e-4, "decay_start": 6, "decay_steps": 4, "lr_final": 0.1}
+    trainer = train_prior(cache, out, PriorTrainConfig(**schedule), max_minutes=5, max_steps=6, explicit=schedule,
+                          progress=False)
+    assert trainer.step == 6 and trainer.config.lr == 5e-4 and trainer.config.decay_start == 6
+    assert trainer.opt.param_groups[0]["lr"] == pytest.approx(5e-4)

@@ -202,6 +202,33 @@ def test_smooth_time_keeps_constants_and_damps_fast_oscillation():
     assert y[:, 1].abs().max() < 0.1 * fast.abs().max()  # wave-like oscillation removed
 
 
+def test_a_still_style_model_keeps_only_the_slow_part_of_its_difference():
+    import math
+
+    from transfer.edit import (
+        STILL_SMOOTHING,
+        keep_slow_when_still,
+        smooth_time,
+        still_share,
+    )
+
+    t = torch.arange(80.0)[None, :, None]
+    base = torch.sin(2 * math.pi * t / 10).expand(2, 80, 6).clone()  # the prior's redraw: steps at 2 Hz
+    moving = base * 1.1 + 0.3  # a style model that moves as much, somewhat differently
+    still = 0.05 * base + 0.3  # ... one that collapsed onto a still pose
+    half = 0.55 * base + 0.3  # halfway between the two ends of STILL_RATIO
+    torch.testing.assert_close(still_share(torch.cat([moving[:1], still[:1]]), base), torch.tensor([1.0, 0.0]))
+    assert float(still_share(half[:1], base[:1])) == pytest.approx(0.5, abs=1e-4)
+    delta = torch.cat([moving[:1], still[:1]]) - base
+    out = keep_slow_when_still(delta, torch.cat([moving[:1], still[:1]]), base)
+    assert torch.equal(out[0], delta[0])  # a moving style keeps all of its difference
+    torch.testing.assert_close(out[1], smooth_time(delta[1:], STILL_SMOOTHING)[0])  # a still one its slow part
+    assert out[1, 10:-10].std(0).max() < 0.2 * delta[1].std(0).max()  # which no longer cancels the steps
+    assert torch.equal(keep_slow_when_still(delta[:1], moving[:1], base[:1]), delta[:1])
+    with pytest.raises(ValueError, match="expected styled and base"):
+        still_share(moving[0], base[0])
+
+
 def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_model():
     import torch
 

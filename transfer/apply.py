@@ -190,7 +190,8 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). With ``config.content_keep`` above 0
     the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`;
     a bundle without a motion encoder, a test's toy one, has none to read with); the share kept goes to
-    ``report["content_share"]`` when a dict is given. Runs on the models' device (``model``
+    ``report["content_share"]`` when a dict is given, and the smallest share of the difference's fast part that the
+    still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) to ``report["still_share"]``. Runs on the models' device (``model``
     and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
     device = model_device(model)
@@ -199,9 +200,12 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
         x = neutralize_features(bundle, x, neutral_text, learned, config, seed, window, overlap)
     starts, windows = _window_views(x, window, overlap)
     gen = torch.Generator().manual_seed(seed)
-    chunks = _in_batches(lambda p: stylize(model, bundle.scheduler, p, learned, config, gen, step=step, prior=bundle.prior),
-                         starts, windows)
+    still: list[float] = []
+    chunks = _in_batches(lambda p: stylize(model, bundle.scheduler, p, learned, config, gen, step=step, prior=bundle.prior,
+                                           shares=None if report is None else still), starts, windows)
     out = crossfade(chunks, starts, x.shape[0])
+    if report is not None and still:
+        report["still_share"] = min(still)
     if posture_shift is not None and config.posture > 0:
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
     if example is not None and config.arm_gate > 0:
@@ -328,7 +332,8 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
 
     ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
     auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
-    what was decided (``detected``, ``neutralized``, and ``content_share`` where the content keeper ran) with the foot-skating ratios before and after cleanup and of
+    what was decided (``detected``, ``neutralized``, ``content_share`` where the content keeper ran, ``still_share``
+    where the difference mode ran) with the foot-skating ratios before and after cleanup and of
     the content itself. Runs on ``model``'s device (the bundle's models there too); the motion and the result are
     on the CPU."""
     learned, config = style.configs()

@@ -48,9 +48,10 @@ class PriorTrainConfig:
     # against the clip's own joint positions, in cm^2; 0 = off. The campaign's last stage turns it on.
     fk_weight: float = 0.0
 
-    # fields a run may change when it resumes (a new stage of the same run); any other given setting that
-    # differs from the checkpoint's is refused
-    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight")
+    # fields a run may change when it resumes (a new stage of the same run: its precision, FK weight, or a new
+    # learning-rate schedule from where it stands, e.g. a higher rate that decays again); any other given setting
+    # that differs from the checkpoint's is refused
+    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "lr", "decay_start", "decay_steps", "lr_final")
 
 
 def caption_embeddings(dataset: MotionDataset) -> torch.Tensor:

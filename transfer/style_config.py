@@ -75,6 +75,8 @@ class ApplyConfig:
     # 0.5 chosen on the val splits, docs/RESULTS.md "A content keeper"); 0: off
     content_keep_top: bool = True  # apply: the content keeper also lets pass a result whose most likely action is still
     # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
+    still_guard: bool = True  # difference mode: where the style model redraws the content nearly without movement (it
+    # collapsed onto a still pose), only the slow part of its difference is kept (transfer.edit.keep_slow_when_still)
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
@@ -91,7 +93,7 @@ CONFIG_RANGES = {
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
-    "content_keep_top": (bool, None, None),
+    "content_keep_top": (bool, None, None), "still_guard": (bool, None, None),
 }
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones

@@ -66,6 +66,11 @@ VARIANTS = {
     "ours-keep08": {"content_keep": 0.8, "content_keep_top": False, "style_scale": 0.95},
     "ours-keep05-s1045": {"content_keep_top": False},  # a result read first as the content's action may still be scaled
     "ours-no-keep": {"content_keep": 0.0, "style_scale": 0.95},  # the default before it
+    # 2026-12-05 (11:50-14:50): the style's difference low-passed over time (a style model that collapsed onto a
+    # still pose cancels the content's steps: the demo's feet; docs/RESULTS.md "A style model's still pose")
+    "ours-s4": {"delta_smoothing": 4.0},
+    "ours-s8": {"delta_smoothing": 8.0},
+    "ours-no-still": {"still_guard": False},  # the default before the still-pose guard (transfer.edit.keep_slow_when_still)
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
