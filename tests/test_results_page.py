@@ -40,3 +40,24 @@ def test_a_real_browser_draws_the_skeletons(tmp_path):
     blue = ((b > 150) & (r < 80)).sum()  # the right limbs (links are blue too: count well above them)
     assert red > 200 and blue > 200, (red, blue)
     assert np.abs(img.astype(int) - [232, 235, 238]).sum(-1).min() < 10  # the canvas background is there
+
+
+def test_the_page_says_what_apply_decided_on_its_own(tmp_path):
+    """A clip whose style change the keeper scaled, or the still-pose guard smoothed, says so under its player,
+    with the words apply prints; a clip where neither acted says nothing more than its name."""
+    from video2style.batch import BatchReport, write_index
+    from video2style.pipeline import apply_notes
+
+    assert apply_notes({"still_share": 1.0, "content_share": 1.0}) == [] == apply_notes({})
+    notes = apply_notes({"still_share": 0.0, "content_share": 0.5})
+    assert notes[0].startswith("the style model barely moves on this clip, so 100% of its fast change")
+    assert notes[1] == "style change scaled to 50% so the action still reads as the content's"
+    out = tmp_path / "out"
+    out.mkdir()
+    report = BatchReport()
+    for clip, row_notes in (("walk.bvh", notes), ("run.bvh", [])):
+        (out / clip).write_text("x")
+        report.add(video="v.mp4", clip=clip, status="done", style="style v", output=str(out / clip), notes=row_notes)
+    text = write_index(report, out).read_text()
+    assert "walk.bvh; the style model barely moves" in text and "reads as the content&#x27;s" in text
+    assert "run.bvh;" not in text

@@ -262,7 +262,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
     """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide): skipped
     when its BVH and preview exist, else applied (tried ``retries`` more times on an error). The report row."""
     from video2style.interchange import in_format, is_clip_file, shared_converter
-    from video2style.pipeline import apply_file
+    from video2style.pipeline import apply_file, apply_notes
 
     # an FBX/glTF clip's result: the same format, keyed onto its own file (one Blender per batch process)
     run = in_format(lambda path, folder: apply_file(style, model, path, folder, strength, seed), shared_converter)
@@ -281,7 +281,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
             error = str(e)
             continue
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
-                "preview": info.get("preview", ""), "player": info.get("player", "")}
+                "preview": info.get("preview", ""), "player": info.get("player", ""), "notes": apply_notes(info)}
     return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1,
             "output": "", "preview": "", "player": ""}  # a failed item wrote nothing (pipeline.write_outputs)
 
@@ -333,10 +333,11 @@ def write_index(report: BatchReport, out_dir: Path) -> Path:
             links.append((f"content {Path(r['content']).name}", rel(r["content"])))
         if r.get("preview") and Path(r["preview"]).is_file():
             links.append(("mp4 preview", rel(r["preview"])))
+        caption = r["clip"] + "".join(f"; {note}" for note in r.get("notes", []))
         if r.get("player") and Path(r["player"]).is_file():
-            figs.append(player_html(str(Path(r["player"]).resolve()), rel(r["player"]), r["clip"], links))
+            figs.append(player_html(str(Path(r["player"]).resolve()), rel(r["player"]), caption, links))
         else:
-            figs.append("<figure><figcaption>" + " · ".join(
+            figs.append(f"<figure><figcaption>{html.escape(caption)}<br>" + " · ".join(
                 f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links) + "</figcaption></figure>")
     text = page("video2style batch results", [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
                 "Each player shows the content clip, the style example and the result side by side: play, scrub "

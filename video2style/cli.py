@@ -395,6 +395,8 @@ def cmd_apply(args) -> None:
 
 def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
     """Run each ``(clip, folder)`` item, printing a line per clip; returns how many failed."""
+    from video2style.pipeline import apply_notes
+
     failed = 0
     for i, (path, where) in enumerate(files, 1):
         try:
@@ -411,12 +413,7 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
                  f"{100 * info['skating_after']:.1f}% after IK (the content clip: {100 * info['skating_content']:.1f}%)"
                  if "skating_after" in info else "")
         tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
-        if info.get("still_share", 1.0) < 1.0:
-            extra += (f"; the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
-                      "fast change was left out (its slow change, the posture, is kept)")
-        if info.get("content_share", 1.0) < 1.0:
-            extra += (f"; style change scaled to {100 * info['content_share']:.0f}% so the action still reads as "
-                      "the content's")
+        extra += "".join(f"; {note}" for note in apply_notes(info))
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
               f"{tempo}{extra}{skate})")
         if info.get("preview_note"):

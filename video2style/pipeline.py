@@ -142,6 +142,19 @@ def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
     return Motion(result.skeleton, lrot[idx], result.lpos, result.fps)
 
 
+def apply_notes(info: dict) -> list[str]:
+    """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): the
+    still-pose guard (``still_share``) and the content keeper (``content_share``); empty when neither acted."""
+    notes = []
+    if info.get("still_share", 1.0) < 1.0:
+        notes.append(f"the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
+                     "fast change was left out (its slow change, the posture, is kept)")
+    if info.get("content_share", 1.0) < 1.0:
+        notes.append(f"style change scaled to {100 * info['content_share']:.0f}% so the action still reads as the "
+                     "content's")
+    return notes
+
+
 def example_motion(style, frames: int | None = None) -> Motion | None:
     """The style example stored in a style file, decoded for previews: its first ``frames`` frames (None: all),
     so that a long example costs a preview no more than the clip beside it does."""
