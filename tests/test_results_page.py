@@ -48,7 +48,8 @@ def test_the_page_says_what_apply_decided_on_its_own(tmp_path):
     from video2style.batch import BatchReport, write_index
     from video2style.pipeline import apply_notes
 
-    assert apply_notes({"still_share": 1.0, "content_share": 1.0}) == [] == apply_notes({})
+    assert apply_notes({"still_share": 1.0, "content_share": 1.0, "rolls_conformed": False}) == [] == apply_notes({})
+    assert apply_notes({"rolls_conformed": True})[0].startswith("its rig rolls its bones its own way")
     notes = apply_notes({"still_share": 0.0, "content_share": 0.5})
     assert notes[0].startswith("the style model barely moves on this clip, so 100% of its fast change")
     assert notes[1] == "style change scaled to 50% so the action still reads as the content's"

@@ -9,7 +9,7 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
-from motioncore.ik_fit import conform_rolls
+from motioncore.ik_fit import ROLL_CONVENTION_DEG, conform_rolls, roll_deviation
 from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
@@ -42,13 +42,16 @@ def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: i
 @dataclass
 class Clip:
     """An input clip on the canonical skeleton at the canonical fps, and how to write results back: the
-    motion as read (``source``, on its own skeleton and fps), its rig and BVH layout (None for videos)."""
+    motion as read (``source``, on its own skeleton and fps), its rig and BVH layout (None for videos);
+    ``rolls_conformed``: its rig's bone rolls were off the models' convention and its rotations were solved again
+    (:func:`motioncore.ik_fit.conform_rolls`)."""
 
     path: Path
     canonical: Motion
     rig: Rig | None = None
     layout: BvhLayout | None = None
     source: Motion | None = None
+    rolls_conformed: bool = False
 
 
 def warp_clip(clip: Clip, tempo: float) -> Clip:
@@ -56,7 +59,7 @@ def warp_clip(clip: Clip, tempo: float) -> Clip:
     if tempo == 1.0:
         return clip
     source = None if clip.source is None else time_warp(clip.source, tempo)
-    return Clip(clip.path, time_warp(clip.canonical, tempo), clip.rig, clip.layout, source)
+    return Clip(clip.path, time_warp(clip.canonical, tempo), clip.rig, clip.layout, source, clip.rolls_conformed)
 
 
 def find_bvh_files(folder: Path, recursive: bool = True) -> list[Path]:
@@ -115,10 +118,12 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     if span != (None, None):
         motion = trim(motion, span, str(path))
-    canon = place_on_floor(conform_rolls(to_canonical(resample(motion, CANONICAL.fps), rig)))
+    canon = to_canonical(resample(motion, CANONICAL.fps), rig)
+    conformed = roll_deviation(canon) > ROLL_CONVENTION_DEG
+    canon = place_on_floor(conform_rolls(canon, force=conformed))
     if canon.num_frames < 10:
         raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
-    return Clip(path, canon, rig, layout, motion)
+    return Clip(path, canon, rig, layout, motion, conformed)
 
 
 def write_result(clip: Clip, result: Motion, out_path: Path) -> Motion | None:
@@ -143,9 +148,13 @@ def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
 
 
 def apply_notes(info: dict) -> list[str]:
-    """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): the
-    still-pose guard (``still_share``) and the content keeper (``content_share``); empty when neither acted."""
+    """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): bone
+    rolls solved again (``rolls_conformed``), the still-pose guard (``still_share``) and the content keeper
+    (``content_share``); empty when none of them acted."""
     notes = []
+    if info.get("rolls_conformed"):
+        notes.append("its rig rolls its bones its own way: the models read rotations solved again from its joint "
+                     "positions (the file written keeps its own twist)")
     if info.get("still_share", 1.0) < 1.0:
         notes.append(f"the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
                      "fast change was left out (its slow change, the posture, is kept)")
@@ -212,7 +221,9 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     if Path(path).suffix.lower() in VIDEO_SUFFIXES:
         _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
-    progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})")
+    progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})"
+             + ("; its rig rolls its bones its own way: rotations solved again from the joint positions"
+                if clip.rolls_conformed else ""))
     m = load_models(device)
     features = m.normalize(encode(clip.canonical), inplace=True)  # in place: a long take's features once
     bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
@@ -306,7 +317,8 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     decided["tempo"] = speed
     ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
-    info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0}
+    info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
+            "rolls_conformed": clip.rolls_conformed}
     if long_take:
         info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
                                "applied a span at a time only at --tempo 1; memory grows with this take")
