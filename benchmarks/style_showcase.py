@@ -121,13 +121,15 @@ def main() -> None:
             continue
         style, model = learn(path, f"xia_{path.stem}")
         ex = encode(decode(style.example))
+        measures = (("gram_ratio", False), ("gram_ratio_positions", True))
+        g_ex = {key: gram(ex, only) for key, only in measures}
         rows = []
         for name, x in walks + runs:
             r = stylize_motion(m, style, model, x, args.strength)[0]
             row = {"clip": name, "displacement": displacement(r, x)}
-            for key, only in (("gram_ratio", False), ("gram_ratio_positions", True)):
-                g_ex, g_c, g_r = (gram(y, only) for y in (ex, encode(x), encode(r)))
-                row[key] = float((g_r - g_ex).norm() / (g_c - g_ex).norm())
+            for key, only in measures:
+                g_c, g_r = gram(encode(x), only), gram(encode(r), only)
+                row[key] = float((g_r - g_ex[key]).norm() / (g_c - g_ex[key]).norm())
             rows.append(row)
         report["xia"][path.stem] = rows
         ratio, ratio_pos, disp = (sum(r[k] for r in rows) / len(rows)

@@ -331,19 +331,25 @@ def roll_deviation(motion: Motion, spec: CanonicalSpec = CANONICAL) -> float:
     return float(torch.rad2deg(quat.angle(quat.mul(quat.inv(ref), mean))).max())
 
 
+def off_roll_convention(motion: Motion, spec: CanonicalSpec = CANONICAL) -> bool:
+    """Whether a canonical motion's bone rolls lie off the training data's convention (:func:`roll_deviation` above
+    :data:`ROLL_CONVENTION_DEG`): the one test of whether :func:`conform_rolls` solves it again."""
+    return roll_deviation(motion, spec) > ROLL_CONVENTION_DEG
+
+
 def conform_rolls(motion: Motion, spec: CanonicalSpec = CANONICAL, force: bool | None = None) -> Motion:
     """A canonical motion with its bones' rolls in the training data's convention, joint positions unchanged.
 
     A foreign rig retargeted by the shortest arc (:func:`motioncore.retarget.to_canonical`) puts the right
     joints in the right places, but each bone's roll about itself, which positions cannot show, is its own
     rig's: the rotation features then lie far outside anything the models were trained on. When the motion
-    is off the convention (:func:`roll_deviation` above :data:`ROLL_CONVENTION_DEG`; ``force`` True/False
-    decides instead), its rotations are solved again from its joint positions as a video's are
+    is off the convention (:func:`off_roll_convention`; ``force`` True/False decides instead, e.g. a decision made
+    once for a whole take), its rotations are solved again from its joint positions as a video's are
     (:func:`fit_positions`: reference rolls, the data's knee and elbow hinges), and each leaf of
     :data:`CONFORM_KEPT_LEAVES` keeps its own turn relative to its parent, carried into the parent's new frame. A motion already in
     the convention (the dataset's, a video's, one written on the canonical skeleton) is returned as it is.
     """
-    if force is False or (force is None and roll_deviation(motion, spec) <= ROLL_CONVENTION_DEG):
+    if not (off_roll_convention(motion, spec) if force is None else force):
         return motion
     sk = spec.skeleton
     grot, gpos = fk(motion.lrot, motion.lpos, sk.parents)

@@ -26,7 +26,7 @@ import torch
 
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.cleanup import cleanup_feet
-from motioncore.ik_fit import ROLL_CONVENTION_DEG, conform_rolls, roll_deviation
+from motioncore.ik_fit import conform_rolls, off_roll_convention
 from motioncore.motion import Motion, resample_span, resampled_frames
 from motioncore.representation import FEATURES, encode, facing_angle
 from motioncore.retarget import (
@@ -135,7 +135,7 @@ class _Take:
         m = resample_span(self.frames[s0:s1], CANONICAL.fps, a, b, first=s0, total=self.frames.num_frames)
         canon = to_canonical(m, self.rig)
         if self.conform is None:
-            self.conform = roll_deviation(canon) > ROLL_CONVENTION_DEG
+            self.conform = off_roll_convention(canon)
         canon = conform_rolls(canon, force=self.conform)
         if self.shift is not None:
             lpos = canon.lpos.clone()

@@ -9,7 +9,7 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
-from motioncore.ik_fit import ROLL_CONVENTION_DEG, conform_rolls, roll_deviation
+from motioncore.ik_fit import conform_rolls, off_roll_convention
 from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
@@ -119,7 +119,7 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     if span != (None, None):
         motion = trim(motion, span, str(path))
     canon = to_canonical(resample(motion, CANONICAL.fps), rig)
-    conformed = roll_deviation(canon) > ROLL_CONVENTION_DEG
+    conformed = off_roll_convention(canon)
     canon = place_on_floor(conform_rolls(canon, force=conformed))
     if canon.num_frames < 10:
         raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
@@ -147,14 +147,17 @@ def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
     return Motion(result.skeleton, lrot[idx], result.lpos, result.fps)
 
 
+# what a user is told when a clip's rig rolls its bones its own way (learn's reading line, apply's notes)
+ROLLS_NOTE = "its rig rolls its bones its own way: the models read rotations solved again from its joint positions"
+
+
 def apply_notes(info: dict) -> list[str]:
     """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): bone
     rolls solved again (``rolls_conformed``), the still-pose guard (``still_share``) and the content keeper
     (``content_share``); empty when none of them acted."""
     notes = []
     if info.get("rolls_conformed"):
-        notes.append("its rig rolls its bones its own way: the models read rotations solved again from its joint "
-                     "positions (the file written keeps its own twist)")
+        notes.append(f"{ROLLS_NOTE} (the file written keeps its own twist)")
     if info.get("still_share", 1.0) < 1.0:
         notes.append(f"the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
                      "fast change was left out (its slow change, the posture, is kept)")
@@ -222,8 +225,7 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})"
-             + ("; its rig rolls its bones its own way: rotations solved again from the joint positions"
-                if clip.rolls_conformed else ""))
+             + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
     m = load_models(device)
     features = m.normalize(encode(clip.canonical), inplace=True)  # in place: a long take's features once
     bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
