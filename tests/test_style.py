@@ -1,7 +1,7 @@
 import pytest
 import torch
 
-from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
+from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, toes_above_floor, two_bone_ik
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
@@ -134,6 +134,53 @@ def test_cleanup_removes_sliding_of_a_planted_foot():
     assert p_before[:, 0].std() > 0.01 and p_after[:, 0].std() < 1e-3
     assert foot_contacts(still.global_positions(), m.fps).all()
     assert encode(out).shape == (m.num_frames, FEATURES.dim)
+
+
+def _standing(frames=6, pitch_deg=0.0):
+    """A canonical rest pose standing on y = 0 (toes at 0), the left foot pitched down by ``pitch_deg``."""
+    from motioncore import quat
+    from motioncore.kinematics import rest_positions
+    from motioncore.motion import Motion
+
+    sk = CANONICAL.skeleton
+    rest = rest_positions(sk.offsets, sk.parents)
+    lrot = quat.identity(frames, sk.num_joints)
+    lpos = sk.offsets.expand(frames, -1, -1).clone()
+    lpos[:, 0, 1] = -rest[:, 1].min() + 0.02  # 2 cm up: the ankle is 7 cm above the floor
+    ankle = sk.index("Foot_L")
+    lrot[:, ankle] = quat.from_axis_angle(torch.tensor([1.0, 0.0, 0.0]), torch.tensor(pitch_deg).deg2rad()).expand(frames, 4)
+    return Motion(sk, lrot, lpos, 20.0)
+
+
+def test_toes_above_floor_pitches_the_foot_up_just_enough():
+    m = _standing(pitch_deg=40.0)  # about X: forward-pointing toes go down
+    toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
+    before = m.global_positions()
+    assert (before[:, toe, 1] < -0.02).all()
+    lrot = toes_above_floor(m.lrot, m.lpos)
+    after = fk(lrot, m.lpos, CANONICAL.skeleton.parents)[1]
+    assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-4)  # on the floor, not above
+    assert torch.allclose(after[:, ankle], before[:, ankle], atol=1e-6)  # the ankle stays
+    assert after[:, toe, 2].mean() > before[:, toe, 2].mean()  # still pointing forward, flatter
+    others = [j for j in range(CANONICAL.num_joints) if j != ankle]
+    assert torch.equal(lrot[:, others], m.lrot[:, others])
+
+
+def test_toes_above_floor_leaves_a_foot_above_it_alone():
+    m = _standing(pitch_deg=-20.0)  # toes up
+    assert torch.equal(toes_above_floor(m.lrot, m.lpos), m.lrot)
+    assert torch.equal(toes_above_floor(m.lrot, m.lpos, floor=-0.5), m.lrot)
+    deep = _standing(pitch_deg=40.0)
+    assert torch.equal(toes_above_floor(deep.lrot, deep.lpos, floor=-0.1), deep.lrot)  # a floor set lower: allowed
+    with pytest.raises(ValueError, match="expected lrot"):
+        toes_above_floor(m.lrot[:, :5], m.lpos)
+
+
+def test_cleanup_keeps_toes_out_of_the_floor():
+    m = _standing(pitch_deg=40.0)
+    flat = _standing()
+    toe = CANONICAL.skeleton.index("Toes_L")
+    assert cleanup_feet(m, reference=flat).global_positions()[:, toe, 1].min() > -1e-4
 
 
 def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
