@@ -1,7 +1,13 @@
 import pytest
 import torch
 
-from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, toes_above_floor, two_bone_ik
+from motioncore.cleanup import (
+    ankle_targets,
+    cleanup_feet,
+    contact_runs,
+    toes_above_floor,
+    two_bone_ik,
+)
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
