@@ -250,6 +250,26 @@ def positions_from_rotations(feats: torch.Tensor, spec: CanonicalSpec = CANONICA
     return fk(lrot, lpos, spec.skeleton.parents)[1][..., 1:, :]
 
 
+def feet_velocity(feats: torch.Tensor, rel: torch.Tensor | None = None, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """How far each contact joint (:attr:`CanonicalSpec.feet`) moves from frame t to t+1 over the ground, in the
+    facing frame of frame t, metres ``(*, T-1, 4, 3)``: the root's planar step plus the joint's move about the
+    root, turned by the frame's yaw step (``root_lvel``, ``root_rvel`` of ``feats (*, T, D)``). ``rel (*, T, J-1, 3)``:
+    the joints about the root to use (default: the position channels; e.g. :func:`positions_from_rotations`'
+    for what the rotation channels imply). Differentiable; zero for a foot planted on the ground."""
+    fs = FeatureSpec(spec.num_joints)
+    if feats.shape[-1] != fs.dim or feats.shape[-2] < 2:
+        raise ValueError(f"feet_velocity: expected (*, T >= 2, {fs.dim}), got {tuple(feats.shape)}")
+    if rel is None:
+        rel = feats[..., fs.positions].unflatten(-1, (spec.num_joints - 1, 3))
+    if rel.shape != (*feats.shape[:-1], spec.num_joints - 1, 3):
+        raise ValueError(f"feet_velocity: expected rel {(*feats.shape[:-1], spec.num_joints - 1, 3)}, got {tuple(rel.shape)}")
+    feet = rel[..., [j - 1 for j in spec.feet], :]  # (*, T, 4, 3)
+    turn = quat.from_yaw(feats[..., :-1, fs.root_rvel.start])[..., None, :]  # (*, T-1, 1, 4)
+    lvel = feats[..., :-1, fs.root_lvel]
+    step = torch.stack([lvel[..., 0], torch.zeros_like(lvel[..., 0]), lvel[..., 1]], -1)[..., None, :]
+    return step + quat.mul_vec(turn, feet[..., 1:, :, :]) - feet[..., :-1, :, :]
+
+
 def _place_joints(feats: torch.Tensor, spec: CanonicalSpec, yaw: torch.Tensor, root: torch.Tensor,
                   hips: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
     """:func:`decode_positions`' per-frame part: the joints of ``feats (*, T, D)`` around the root path."""

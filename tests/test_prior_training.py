@@ -138,19 +138,60 @@ def test_fk_loss_is_zero_on_real_features_and_grows_with_a_bent_joint():
         fk_loss(x[..., :-1], x[..., :-1], valid, mean[:-1], std[:-1])
 
 
+def test_feet_velocity_is_the_feet_travel_over_the_ground_in_the_facing_frame():
+    """Known values: against the global joint positions that decoding the position channels gives, differenced and
+    turned into each frame's facing frame; from the rotation channels (FK) the same on encoded clips."""
+    from motioncore import quat
+    from motioncore.representation import FEATURES, decode_positions, encode, feet_velocity, positions_from_rotations
+    from motioncore.skeleton import CANONICAL
+    from tests.helpers import random_motion
+
+    feats = encode(random_motion(seconds=2, seed=4)).double()
+    g = decode_positions(feats)[:, list(CANONICAL.feet)]
+    rvel = feats[:, FEATURES.root_rvel.start]
+    yaw = torch.cumsum(rvel, 0) - rvel
+    expected = quat.mul_vec(quat.from_yaw(-yaw[:-1])[:, None], g[1:] - g[:-1])
+    assert (feet_velocity(feats) - expected).abs().max() < 1e-9
+    assert (feet_velocity(feats, positions_from_rotations(feats)) - expected).abs().max() < 1e-4
+    assert feet_velocity(torch.stack([feats, feats])).shape == (2, feats.shape[0] - 1, 4, 3)
+    with pytest.raises(ValueError, match="expected"):
+        feet_velocity(feats[:1])
+
+
+def test_contact_loss_is_zero_on_real_features_and_grows_when_the_root_slides():
+    from motioncore.representation import FEATURES, encode
+    from tests.helpers import random_motion
+    from transfer.prior import contact_loss
+
+    m = random_motion(seconds=2, seed=1, amplitude=0.0)
+    x = encode(type(m)(m.skeleton, m.lrot, m.lpos[:1].expand_as(m.lpos).clone(), m.fps))[None]  # standing still
+    assert x[..., FEATURES.contacts].mean() > 0.5
+    mean, std = torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim)
+    valid = torch.ones(x.shape[:2], dtype=torch.bool)
+    assert float(contact_loss(x, x, valid, mean, std)) < 1e-6
+    sliding = x.clone()
+    sliding[..., FEATURES.root_lvel.start] += 0.02  # 2 cm a frame forward while the feet stay planted
+    assert float(contact_loss(sliding, x, valid, mean, std)) == pytest.approx(4.0 / 3, rel=1e-3)  # (cm/frame)^2 per axis
+    assert float(contact_loss(sliding, x, torch.zeros_like(valid), mean, std)) == 0.0  # nothing valid
+    with pytest.raises(ValueError, match="expected"):
+        contact_loss(x[..., :-1], x[..., :-1], valid, mean[:-1], std[:-1])
+
+
 def test_fk_weight_is_a_stage_a_finished_run_may_resume_with_and_its_log_gains_the_column(tmp_path):
     import csv
 
     cache, out = _cache(tmp_path), tmp_path / "run"
     train_prior(cache, out, PriorTrainConfig(**TINY), max_minutes=5, max_steps=3, explicit=dict(TINY), progress=False)
-    stage = {"fk_weight": 0.05, "precision": "bf16"}
+    stage = {"fk_weight": 0.05, "contact_weight": 1.0, "precision": "bf16"}
     trainer = train_prior(cache, out, PriorTrainConfig(**stage), max_minutes=5, max_steps=5, explicit=stage,
                           progress=False)
     assert trainer.step == 5 and trainer.config.fk_weight == 0.05 and trainer.config.width == 32
+    assert trainer.config.contact_weight == 1.0
     with open(out / "log.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [int(r["step"]) for r in rows] == [1, 2, 3, 4, 5]
     assert [r["fk"] for r in rows[:3]] == ["", "", ""] and all(float(r["fk"]) >= 0 for r in rows[3:])
+    assert [r["contact"] for r in rows[:3]] == ["", "", ""] and all(float(r["contact"]) >= 0 for r in rows[3:])
     with pytest.raises(ValueError, match="cannot resume with different settings.*width"):
         train_prior(cache, out, PriorTrainConfig(width=64), max_minutes=5, max_steps=6, explicit={"width": 64},
                     progress=False)

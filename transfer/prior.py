@@ -9,7 +9,7 @@ from typing import ClassVar
 
 import torch
 
-from motioncore.representation import FEATURES, positions_from_rotations
+from motioncore.representation import FEATURES, feet_velocity, positions_from_rotations
 from transfer.checkpoints import resumed_config, save_model
 from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
@@ -47,11 +47,14 @@ class PriorTrainConfig:
     # weight of the FK consistency term (:func:`fk_loss`): the joints implied by the predicted rotation channels
     # against the clip's own joint positions, in cm^2; 0 = off. The campaign's last stage turns it on.
     fk_weight: float = 0.0
+    # weight of the foot-contact term (:func:`contact_loss`): where the clip's feet are planted, how far the feet that
+    # the predicted rotations and root velocity place move over the ground against the clip's own, in (cm/frame)^2
+    contact_weight: float = 0.0
 
     # fields a run may change when it resumes (a new stage of the same run: its precision, FK weight, or a new
     # learning-rate schedule from where it stands, e.g. a higher rate that decays again); any other given setting
     # that differs from the checkpoint's is refused
-    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "lr", "decay_start", "decay_steps", "lr_final")
+    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "contact_weight", "lr", "decay_start", "decay_steps", "lr_final")
 
 
 def caption_embeddings(dataset: MotionDataset) -> torch.Tensor:
@@ -82,14 +85,35 @@ def fk_loss(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor, mean: tor
     return masked_mse(100.0 * implied.flatten(-2), 100.0 * target, valid)
 
 
+def contact_loss(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor, mean: torch.Tensor,
+                 std: torch.Tensor) -> torch.Tensor:
+    """Foot contacts, in (cm/frame)^2: normalised features ``pred, x0 (B, T, D)`` over ``valid (B, T)``, ``mean, std
+    (D,)``; over the frames where ``x0``'s contact flags say a foot joint is planted, the mean squared difference
+    between how far that joint moves over the ground to the next frame as ``pred``'s rotation channels, root height
+    and root velocities place it and as ``x0``'s channels do (:func:`motioncore.representation.feet_velocity`). Zero
+    for real features: it ties the root's travel to the planted feet, which no other term couples."""
+    if pred.shape != x0.shape or pred.shape[-1] != FEATURES.dim or mean.shape != (FEATURES.dim,):
+        raise ValueError(f"contact_loss: expected pred, x0 (B, T, {FEATURES.dim}) and mean (D,), got "
+                         f"{tuple(pred.shape)}, {tuple(x0.shape)}, {tuple(mean.shape)}")
+    mean, std = mean.to(pred), std.to(pred)
+    pred_raw, x0_raw = pred * std + mean, x0 * std + mean
+    moved_pred = feet_velocity(pred_raw, positions_from_rotations(pred_raw))  # (B, T-1, 4, 3)
+    moved_gt = feet_velocity(x0_raw)
+    planted = (x0_raw[..., :-1, FEATURES.contacts] > 0.5) & (valid[..., :-1] & valid[..., 1:])[..., None]
+    w = planted[..., None].to(pred.dtype)
+    return ((100.0 * (moved_pred - moved_gt)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1)
+
+
 def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator, precision: str = "fp32",
-                   fk_weight: float = 0.0, norm: tuple[torch.Tensor, torch.Tensor] | None = None):
+                   fk_weight: float = 0.0, norm: tuple[torch.Tensor, torch.Tensor] | None = None,
+                   contact_weight: float = 0.0):
     """x0-prediction loss at random steps, plus a loss on frame-to-frame differences: ``x0 (B, T, D)``,
     ``valid (B, T)``, ``text (B, E)``, ``drop (B,)``, moved to the model's device; the steps and the noise are
     drawn on the CPU from ``generator``. ``precision`` "bf16": the model's forward under bfloat16 autocast.
-    ``fk_weight`` > 0 adds :func:`fk_loss` times it, which needs ``norm`` = the features' ``(mean, std)``."""
-    if fk_weight > 0 and norm is None:
-        raise ValueError("diffusion_loss: fk_weight > 0 needs norm=(mean, std)")
+    ``fk_weight`` > 0 adds :func:`fk_loss` times it, ``contact_weight`` > 0 :func:`contact_loss` times it; both need
+    ``norm`` = the features' ``(mean, std)``."""
+    if (fk_weight > 0 or contact_weight > 0) and norm is None:
+        raise ValueError("diffusion_loss: fk_weight or contact_weight > 0 needs norm=(mean, std)")
     if precision not in PRECISIONS:
         raise ValueError(f"diffusion_loss: expected precision in {PRECISIONS}, got {precision!r}")
     device = model_device(model)
@@ -105,6 +129,10 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
         fk = fk_loss(pred.float(), x0, valid, *norm)
         loss = loss + fk_weight * fk
         logs["fk"] = fk.item()
+    if contact_weight > 0:
+        contact = contact_loss(pred.float(), x0, valid, *norm)
+        loss = loss + contact_weight * contact
+        logs["contact"] = contact.item()
     return loss, logs
 
 
@@ -196,7 +224,7 @@ def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_min
         x0, valid, idx = data.sample_windows(config.batch_size, config.window, gen)
         drop = torch.rand(config.batch_size, generator=gen) < config.text_drop
         return diffusion_loss(m, scheduler, x0, valid, text[idx], drop, config.velocity_weight, gen, config.precision,
-                              config.fk_weight, (data.mean, data.std))
+                              config.fk_weight, (data.mean, data.std), config.contact_weight)
 
     trainer.run(loss_fn, max_steps, max_minutes, progress=progress, evaluate=evaluate, eval_every=config.val_every or 1)
     export_prior(trainer, data, out_dir / "denoiser.safetensors", data_dir)
