@@ -47,8 +47,8 @@ class PriorTrainConfig:
     # weight of the FK consistency term (:func:`fk_loss`): the joints implied by the predicted rotation channels
     # against the clip's own joint positions, in cm^2; 0 = off. The campaign's last stage turns it on.
     fk_weight: float = 0.0
-    # weight of the foot-contact term (:func:`contact_loss`): where the clip's feet are planted, how far the feet that
-    # the predicted rotations and root velocity place move over the ground against the clip's own, in (cm/frame)^2
+    # weight of the foot-contact term (:func:`contact_loss`): how far the feet the model says are planted move over the
+    # ground as its rotations and root velocity place them, in (cm/frame)^2 (MDM's term)
     contact_weight: float = 0.0
 
     # fields a run may change when it resumes (a new stage of the same run: its precision, FK weight, or a new
@@ -85,23 +85,21 @@ def fk_loss(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor, mean: tor
     return masked_mse(100.0 * implied.flatten(-2), 100.0 * target, valid)
 
 
-def contact_loss(pred: torch.Tensor, x0: torch.Tensor, valid: torch.Tensor, mean: torch.Tensor,
-                 std: torch.Tensor) -> torch.Tensor:
-    """Foot contacts, in (cm/frame)^2: normalised features ``pred, x0 (B, T, D)`` over ``valid (B, T)``, ``mean, std
-    (D,)``; over the frames where ``x0``'s contact flags say a foot joint is planted, the mean squared difference
-    between how far that joint moves over the ground to the next frame as ``pred``'s rotation channels, root height
-    and root velocities place it and as ``x0``'s channels do (:func:`motioncore.representation.feet_velocity`). Zero
-    for real features: it ties the root's travel to the planted feet, which no other term couples."""
-    if pred.shape != x0.shape or pred.shape[-1] != FEATURES.dim or mean.shape != (FEATURES.dim,):
-        raise ValueError(f"contact_loss: expected pred, x0 (B, T, {FEATURES.dim}) and mean (D,), got "
-                         f"{tuple(pred.shape)}, {tuple(x0.shape)}, {tuple(mean.shape)}")
-    mean, std = mean.to(pred), std.to(pred)
-    pred_raw, x0_raw = pred * std + mean, x0 * std + mean
-    moved_pred = feet_velocity(pred_raw, positions_from_rotations(pred_raw))  # (B, T-1, 4, 3)
-    moved_gt = feet_velocity(x0_raw)
-    planted = (x0_raw[..., :-1, FEATURES.contacts] > 0.5) & (valid[..., :-1] & valid[..., 1:])[..., None]
-    w = planted[..., None].to(pred.dtype)
-    return ((100.0 * (moved_pred - moved_gt)) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1)
+def contact_loss(pred: torch.Tensor, valid: torch.Tensor, mean: torch.Tensor, std: torch.Tensor) -> torch.Tensor:
+    """Planted feet stay put, in (cm/frame)^2: normalised predicted features ``pred (B, T, D)`` over ``valid (B, T)``,
+    ``mean, std (D,)``; how far each foot joint moves over the ground to the next frame as ``pred``'s rotation channels,
+    root height and root velocities place it (:func:`motioncore.representation.feet_velocity`), squared, weighted by
+    ``pred``'s own contact flags (clipped to 0-1, no gradient through them), as MDM's foot-contact term. It ties the
+    root's travel to the feet the model itself says are planted, which no other term couples; attainable at any noise
+    level, unlike matching a clip's exact foot velocities."""
+    if pred.shape[-1] != FEATURES.dim or pred.ndim != 3 or mean.shape != (FEATURES.dim,):
+        raise ValueError(f"contact_loss: expected pred (B, T, {FEATURES.dim}) and mean (D,), got "
+                         f"{tuple(pred.shape)}, {tuple(mean.shape)}")
+    raw = pred * std.to(pred) + mean.to(pred)
+    moved = feet_velocity(raw, positions_from_rotations(raw))  # (B, T-1, 4, 3)
+    planted = raw[..., :-1, FEATURES.contacts].detach().clamp(0.0, 1.0) * (valid[..., :-1] & valid[..., 1:])[..., None]
+    w = planted[..., None]
+    return ((100.0 * moved) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1)
 
 
 def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator, precision: str = "fp32",
@@ -130,7 +128,7 @@ def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, gen
         loss = loss + fk_weight * fk
         logs["fk"] = fk.item()
     if contact_weight > 0:
-        contact = contact_loss(pred.float(), x0, valid, *norm)
+        contact = contact_loss(pred.float(), valid, *norm)
         loss = loss + contact_weight * contact
         logs["contact"] = contact.item()
     return loss, logs

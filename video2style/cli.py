@@ -847,9 +847,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "clip's joint positions, cm^2); the campaign's last stage: 0.05 (default: 0; a resumed run "
                         "may change it)")
     t.add_argument("--contact-weight", dest="contact_weight", type=_non_negative, default=None,
-                   help="weight of the foot-contact term (where the clip's feet are planted, how far the predicted "
-                        "rotations and root velocity move them over the ground against the clip, (cm/frame)^2) "
-                        "(default: 0; a resumed run may change it)")
+                   help="weight of the foot-contact term (how far the feet the model says are planted move over the "
+                        "ground, (cm/frame)^2, as MDM's) (default: 0; a resumed run may change it)")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
                    help="steps between validation losses, logged to OUT/val.csv (default: 250; 0: none)")
     _add_exclude_styles(t)
