@@ -142,7 +142,13 @@ def test_feet_velocity_is_the_feet_travel_over_the_ground_in_the_facing_frame():
     """Known values: against the global joint positions that decoding the position channels gives, differenced and
     turned into each frame's facing frame; from the rotation channels (FK) the same on encoded clips."""
     from motioncore import quat
-    from motioncore.representation import FEATURES, decode_positions, encode, feet_velocity, positions_from_rotations
+    from motioncore.representation import (
+        FEATURES,
+        decode_positions,
+        encode,
+        feet_velocity,
+        positions_from_rotations,
+    )
     from motioncore.skeleton import CANONICAL
     from tests.helpers import random_motion
 
