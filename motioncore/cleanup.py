@@ -4,8 +4,8 @@ Contacts come from a reference motion (the content clip the result is aligned wi
 of ankle contact frames is pinned to its mean position in the result, with smoothstep blending
 in and out; the ankle is kept above the floor; hips stay where they are; each leg is solved so
 the ankle reaches its target with the knee bending in its current plane, and the foot keeps its
-global orientation unless its toes would go through the floor: then the foot pitches up about the ankle just enough
-(:func:`toes_above_floor`).
+global orientation; where that orientation would put its toes through the floor (a style that lowers the body keeps
+the content's toe-off pitch), the ankle is lifted until they touch it.
 """
 from __future__ import annotations
 
@@ -97,40 +97,14 @@ def cleanup_feet(motion: Motion, reference: Motion | None = None, blend: int = 4
     rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)
     feet = list(spec.feet)
     ankle_floor = float(rest[feet[0], 1] - rest[feet, 1].min())
+    toe_floor = min(0.0, float(ref.global_positions()[:, [feet[1], feet[3]], 1].min()))  # a content's lower floor holds
     lrot = motion.lrot
     for side, (hip, knee, ankle) in enumerate(spec.legs):
         grot, gpos = fk(lrot, motion.lpos, spec.skeleton.parents)
         target = ankle_targets(gpos[:, ankle], contacts[:, 2 * side] > 0.5, blend, ankle_floor)
+        # the foot keeps its orientation, so its toes keep their height above the ankle: lift the ankle where they
+        # would go through the floor
+        toes_y = target[:, 1] + gpos[:, feet[2 * side + 1], 1] - gpos[:, ankle, 1]
+        target[:, 1] += (toe_floor - toes_y).clamp_min(0.0)
         lrot = two_bone_ik(grot, gpos, lrot, spec.skeleton.parents, hip, knee, ankle, target)
-    toes = [feet[1], feet[3]]
-    toe_floor = min(0.0, float(ref.global_positions()[:, toes, 1].min()))  # a content whose toes go lower sets it
-    lrot = toes_above_floor(lrot, motion.lpos, spec, toe_floor)
     return Motion(motion.skeleton, lrot, motion.lpos, motion.fps)
-
-
-def toes_above_floor(lrot: torch.Tensor, lpos: torch.Tensor, spec: CanonicalSpec = CANONICAL,
-                     floor: float = 0.0) -> torch.Tensor:
-    """Local rotations ``(T, J, 4)`` of a canonical motion (``lpos (T, J, 3)``) with each foot pitched up about its
-    ankle, in the vertical plane of the ankle-to-toes bone, by just the angle that brings its toes joint up to
-    ``floor`` (metres) in frames where it is below; other frames and joints are left exactly as they are. The toes
-    keep their local rotation. An ankle below ``floor`` itself is left alone (nothing to pitch about)."""
-    if lrot.ndim != 3 or lrot.shape[1:] != (spec.num_joints, 4):
-        raise ValueError(f"toes_above_floor: expected lrot (T, {spec.num_joints}, 4), got {tuple(lrot.shape)}")
-    parents = spec.skeleton.parents
-    out = lrot.clone()
-    for ankle, toe in ((spec.feet[0], spec.feet[1]), (spec.feet[2], spec.feet[3])):
-        grot, gpos = fk(out, lpos, parents)
-        bone = gpos[:, toe] - gpos[:, ankle]  # (T, 3)
-        length = bone.norm(dim=-1).clamp_min(1e-6)
-        flat = bone * bone.new_tensor([1.0, 0.0, 1.0])
-        low = (gpos[:, toe, 1] < floor) & (gpos[:, ankle, 1] > floor) & (flat.norm(dim=-1) > 1e-3)
-        if not bool(low.any()):
-            continue
-        pitch = torch.atan2(bone[:, 1], flat.norm(dim=-1))  # angle of the bone above the horizontal
-        wanted = torch.asin(((floor - gpos[:, ankle, 1]) / length).clamp(-1.0, 1.0))
-        axis = torch.nn.functional.normalize(torch.linalg.cross(flat, bone.new_tensor([0.0, 1.0, 0.0]).expand_as(flat)),
-                                             dim=-1)  # turning about it by +a raises the bone
-        turn = quat.from_axis_angle(axis, (wanted - pitch).clamp_min(0.0) * low)
-        g_ankle = quat.mul(turn, grot[:, ankle])
-        out[:, ankle] = torch.where(low[:, None], quat.mul(quat.inv(grot[:, parents[ankle]]), g_ankle), out[:, ankle])
-    return out

@@ -5,7 +5,6 @@ from motioncore.cleanup import (
     ankle_targets,
     cleanup_feet,
     contact_runs,
-    toes_above_floor,
     two_bone_ik,
 )
 from motioncore.kinematics import fk
@@ -158,35 +157,28 @@ def _standing(frames=6, pitch_deg=0.0):
     return Motion(sk, lrot, lpos, 20.0)
 
 
-def test_toes_above_floor_pitches_the_foot_up_just_enough():
-    m = _standing(pitch_deg=40.0)  # about X: forward-pointing toes go down
+def test_cleanup_lifts_a_foot_whose_toes_would_go_through_the_floor_and_keeps_its_pitch():
+    m = _standing(pitch_deg=40.0)  # about X: the forward-pointing toes go 4 cm below the floor
+    flat = _standing()
     toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
     before = m.global_positions()
-    assert (before[:, toe, 1] < -0.02).all()
-    lrot = toes_above_floor(m.lrot, m.lpos)
-    after = fk(lrot, m.lpos, CANONICAL.skeleton.parents)[1]
-    assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-4)  # on the floor, not above
-    assert torch.allclose(after[:, ankle], before[:, ankle], atol=1e-6)  # the ankle stays
-    assert after[:, toe, 2].mean() > before[:, toe, 2].mean()  # still pointing forward, flatter
-    others = [j for j in range(CANONICAL.num_joints) if j != ankle]
-    assert torch.equal(lrot[:, others], m.lrot[:, others])
+    assert (before[:, toe, 1] < -0.03).all()
+    out = cleanup_feet(m, reference=flat)
+    grot, after = fk(out.lrot, out.lpos, CANONICAL.skeleton.parents)
+    assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-3)  # on the floor, not above it
+    lift = after[:, ankle, 1] - before[:, ankle, 1]
+    assert torch.allclose(lift, -before[:, toe, 1], atol=1e-3)  # lifted by the depth
+    g_before = fk(m.lrot, m.lpos, CANONICAL.skeleton.parents)[0]
+    assert ((grot[:, ankle] * g_before[:, ankle]).sum(-1).abs() > 1 - 1e-5).all()  # the foot keeps its pitch
+    right = CANONICAL.skeleton.index("Toes_R")
+    assert torch.allclose(after[:, right], before[:, right], atol=1e-4)  # a foot on the floor is left alone
 
 
-def test_toes_above_floor_leaves_a_foot_above_it_alone():
-    m = _standing(pitch_deg=-20.0)  # toes up
-    assert torch.equal(toes_above_floor(m.lrot, m.lpos), m.lrot)
-    assert torch.equal(toes_above_floor(m.lrot, m.lpos, floor=-0.5), m.lrot)
-    deep = _standing(pitch_deg=40.0)
-    assert torch.equal(toes_above_floor(deep.lrot, deep.lpos, floor=-0.1), deep.lrot)  # a floor set lower: allowed
-    with pytest.raises(ValueError, match="expected lrot"):
-        toes_above_floor(m.lrot[:, :5], m.lpos)
-
-
-def test_cleanup_keeps_toes_out_of_the_floor():
+def test_cleanup_lets_the_toes_go_as_low_as_the_content_s_do():
     m = _standing(pitch_deg=40.0)
-    flat = _standing()
     toe = CANONICAL.skeleton.index("Toes_L")
-    assert cleanup_feet(m, reference=flat).global_positions()[:, toe, 1].min() > -1e-4
+    out = cleanup_feet(m, reference=m)  # the content itself goes that low: its floor
+    assert torch.allclose(out.global_positions()[:, toe], m.global_positions()[:, toe], atol=1e-4)
 
 
 def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
