@@ -93,11 +93,12 @@ def cleanup_feet(motion: Motion, reference: Motion | None = None, blend: int = 4
     ref = reference if reference is not None else motion
     if ref.num_frames != motion.num_frames:
         raise ValueError(f"cleanup_feet: expected a reference of {motion.num_frames} frames, got {ref.num_frames}")
-    contacts = foot_contacts(ref.global_positions(), ref.fps, spec, floor)  # (T, 4): Foot_L, Toes_L, Foot_R, Toes_R
+    ref_gpos = ref.global_positions()
+    contacts = foot_contacts(ref_gpos, ref.fps, spec, floor)  # (T, 4): Foot_L, Toes_L, Foot_R, Toes_R
     rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)
     feet = list(spec.feet)
     ankle_floor = float(rest[feet[0], 1] - rest[feet, 1].min())
-    toe_floor = min(0.0, float(ref.global_positions()[:, [feet[1], feet[3]], 1].min()))  # a content's lower floor holds
+    toe_floor = min(0.0, float(ref_gpos[:, [feet[1], feet[3]], 1].min()))  # a content's lower floor holds
     lrot = motion.lrot
     for side, (hip, knee, ankle) in enumerate(spec.legs):
         grot, gpos = fk(lrot, motion.lpos, spec.skeleton.parents)

@@ -1,12 +1,7 @@
 import pytest
 import torch
 
-from motioncore.cleanup import (
-    ankle_targets,
-    cleanup_feet,
-    contact_runs,
-    two_bone_ik,
-)
+from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL

@@ -51,7 +51,7 @@ class PriorTrainConfig:
     # ground as its rotations and root velocity place them, in (cm/frame)^2 (MDM's term)
     contact_weight: float = 0.0
 
-    # fields a run may change when it resumes (a new stage of the same run: its precision, FK weight, or a new
+    # fields a run may change when it resumes (a new stage of the same run: its precision, FK or contact weight, or a new
     # learning-rate schedule from where it stands, e.g. a higher rate that decays again); any other given setting
     # that differs from the checkpoint's is refused
     STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "contact_weight", "lr", "decay_start", "decay_steps", "lr_final")
