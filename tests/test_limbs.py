@@ -215,3 +215,56 @@ def test_an_arm_doing_what_the_example_never_does_keeps_the_content_and_the_rest
         arm_gate(content, example, 0.0)
     with pytest.raises(ValueError, match="weights"):
         gate_arms(styled, content, w[:, :1])
+
+
+def _travelling(feats: torch.Tensor, speed: float) -> torch.Tensor:
+    """Raw features ``(T, D)`` whose root moves forward at ``speed`` m/s (the rest as it is)."""
+    from motioncore.representation import FEATURES
+
+    out = feats.clone()
+    out[:, FEATURES.root_lvel] = torch.tensor([0.0, speed / CANONICAL.fps])
+    return out
+
+
+def test_a_travelling_examples_style_moves_an_arm_of_a_clip_done_in_place_only_by_its_posture():
+    from motioncore.representation import FEATURES
+    from transfer.apply import (
+        ARM_JOINTS,
+        arm_motion_share,
+        ground_speed,
+        keep_arm_motion,
+        posture_channels,
+    )
+    from transfer.style_losses import STAT_CHANNELS
+
+    base = encode(random_motion(seconds=4, seed=9, amplitude=0.2))
+    walk, wave = _travelling(base, 1.2), _travelling(base, 0.03)
+    assert ground_speed(walk) == pytest.approx(1.2, rel=1e-5)
+    assert arm_motion_share(wave, walk, 0.5) == pytest.approx(0.03 / 0.6, rel=1e-4)
+    assert arm_motion_share(_travelling(base, 0.9), walk, 0.5) == 1.0  # a slower walk: all of it
+    assert arm_motion_share(walk, wave, 0.5) == 1.0  # an example done in place: its arms' motion is the style
+    gen = torch.Generator().manual_seed(0)
+    styled = wave + 0.3 + 0.1 * torch.randn(wave.shape, generator=gen)  # a held offset and a moving change
+    out = keep_arm_motion(styled, wave, 0.0)
+    arms = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_{s}") for s in "LR" for n in ARM_JOINTS])
+    rest = [c for c in range(FEATURES.dim) if c not in arms]
+    assert torch.equal(out[:, rest], styled[:, rest])  # the body and legs keep all of the style
+    change = out[:, arms] - wave[:, arms]
+    assert torch.allclose(change, change.mean(0, keepdim=True).expand_as(change), atol=1e-5)  # held, not moved
+    assert torch.allclose(change.mean(0), (styled - wave)[:, arms].mean(0), atol=1e-5)  # where the style holds it
+    full = (styled - wave)[:, arms]
+    half = keep_arm_motion(styled, wave, 0.5)[:, arms] - wave[:, arms]
+    assert torch.allclose(half - half.mean(0), 0.5 * (full - full.mean(0)), atol=1e-5)  # half of how it moves
+    assert torch.equal(keep_arm_motion(styled, wave, 1.0), styled)
+    held = posture_channels(torch.full((len(STAT_CHANNELS),), 0.2), FEATURES.dim, amount=0.5)
+    assert float(held[FEATURES.root_lvel].abs().max()) == 0.0 and float(held[arms].min()) == pytest.approx(0.1)
+    at_pose = keep_arm_motion(styled, wave, 0.0, held)[:, arms] - wave[:, arms]  # held where the example holds them
+    assert torch.allclose(at_pose, torch.full_like(at_pose, 0.1), atol=1e-5)
+    quarter = keep_arm_motion(styled, wave, 0.25, held)[:, arms] - wave[:, arms]
+    assert torch.allclose(quarter.mean(0), 0.25 * full.mean(0) + 0.75 * 0.1, atol=1e-5)
+    with pytest.raises(ValueError, match="expected a travel share above 0"):
+        arm_motion_share(wave, walk, 0.0)
+    with pytest.raises(ValueError, match="expected out and content"):
+        keep_arm_motion(styled, wave[:10], 0.5)
+    with pytest.raises(ValueError, match="expected held"):
+        keep_arm_motion(styled, wave, 0.5, held[:10])

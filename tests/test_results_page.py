@@ -53,6 +53,9 @@ def test_the_page_says_what_apply_decided_on_its_own(tmp_path):
     notes = apply_notes({"still_share": 0.0, "content_share": 0.5})
     assert notes[0].startswith("the style model barely moves on this clip, so 100% of its fast change")
     assert notes[1] == "style change scaled to 50% so the action still reads as the content's"
+    arms = ("the example travels and this clip stays in place: its arms keep their own motion (4% of the style's), "
+            "held where the example holds its arms")
+    assert apply_notes({"arm_motion_share": 0.04}) == [arms]
     out = tmp_path / "out"
     out.mkdir()
     report = BatchReport()

@@ -187,7 +187,9 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     crossfaded over 20. ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
     above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None). ``example``
     (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
-    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`). With ``config.content_keep`` above 0
+    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`); with ``config.arm_travel`` above 0,
+    the arms of a clip done in place keep its motion when the example travels (:func:`arm_motion_share`,
+    :func:`keep_arm_motion`; the share to ``report["arm_motion_share"]``). With ``config.content_keep`` above 0
     the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`;
     a bundle without a motion encoder, a test's toy one, has none to read with); the share kept goes to
     ``report["content_share"]`` when a dict is given, and the smallest share of the difference's fast part that the
@@ -210,6 +212,14 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
+    if example is not None and config.arm_travel > 0:
+        share = arm_motion_share(bundle.denormalize(x), example.to(x.device), config.arm_travel)
+        held = None
+        if posture_shift is not None and config.posture > 0:
+            held = posture_channels(posture_shift.to(out), out.shape[1], 1.0 if strength is None else 2.0 * strength)
+        out = keep_arm_motion(out, x, share, held)
+        if report is not None:
+            report["arm_motion_share"] = share
     if config.content_keep > 0 and bundle.motion_encoder is not None:
         out, share = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep,
                                   config.content_keep_top)
@@ -252,6 +262,69 @@ def gate_arms(out: torch.Tensor, content: torch.Tensor, weights: torch.Tensor) -
         ch = FEATURES.joint_channels(joints)
         out[:, ch] = content[:, ch] + w[:, None] * (out[:, ch] - content[:, ch])
     return out
+
+
+ARM_TRAVEL_MIN = 0.2  # m/s: an example that travels slower over the ground is done in place (arm_motion_share)
+
+
+def ground_speed(feats: torch.Tensor) -> float:
+    """Mean speed of the root over the ground, raw features ``(T, D)`` at the canonical fps -> m/s."""
+    from motioncore.skeleton import CANONICAL
+
+    if feats.ndim != 2 or feats.shape[1] != FEATURES.dim:
+        raise ValueError(f"ground_speed: expected raw features (T, {FEATURES.dim}), got {tuple(feats.shape)}")
+    return float(feats[:, FEATURES.root_lvel].norm(dim=-1).mean()) * CANONICAL.fps
+
+
+def arm_motion_share(content: torch.Tensor, example: torch.Tensor, travel: float) -> float:
+    """How much of the style's change over time the arms of ``content`` take (beyond its time-mean, the posture;
+    :func:`keep_arm_motion`), both raw features ``(T, D)``, ``(T', D)``: all when the example is done in place
+    (slower than :data:`ARM_TRAVEL_MIN`) or the content travels at least ``travel`` times the example's ground
+    speed, less in proportion below that. How a walk swings its arms says nothing of how a wave moves them."""
+    if travel <= 0:
+        raise ValueError(f"arm_motion_share: expected a travel share above 0, got {travel}")
+    v_example = ground_speed(example)
+    if v_example < ARM_TRAVEL_MIN:
+        return 1.0
+    return min(1.0, ground_speed(content) / (travel * v_example))
+
+
+def keep_arm_motion(out: torch.Tensor, content: torch.Tensor, share: float,
+                    held: torch.Tensor | None = None) -> torch.Tensor:
+    """``out (T, D)``, stylised from ``content (T, D)`` (features, normalised or not alike), with each arm's
+    channels (shoulder to hand, positions and rotations) keeping ``share`` of the style's change around its
+    time-mean: the arm moves as the content moves it, held where the style holds it. With ``held (D,)`` (the
+    example's own change against its pair, :func:`posture_channels`), the held change goes ``1 - share`` of the
+    way from the style model's time-mean to it: what a walk's model does to an arm that waves is not the style."""
+    from motioncore.skeleton import CANONICAL
+
+    if out.shape != content.shape or out.ndim != 2:
+        raise ValueError(f"keep_arm_motion: expected out and content (T, D) alike, got {tuple(out.shape)}, "
+                         f"{tuple(content.shape)}")
+    if held is not None and held.shape != (out.shape[1],):
+        raise ValueError(f"keep_arm_motion: expected held ({out.shape[1]},), got {tuple(held.shape)}")
+    if share >= 1:
+        return out
+    out = out.clone()
+    for side in "LR":
+        ch = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS])
+        change = out[:, ch] - content[:, ch]
+        mean = change.mean(0, keepdim=True)
+        target = mean if held is None else share * mean + (1 - share) * held[ch]
+        out[:, ch] = content[:, ch] + target + share * (change - mean)
+    return out
+
+
+def posture_channels(posture_shift: torch.Tensor, dim: int, amount: float = 1.0) -> torch.Tensor:
+    """A style's ``posture_shift (C,)`` (over :data:`transfer.style_losses.STAT_CHANNELS`) times ``amount``, placed
+    in a ``(dim,)`` vector of feature channels (0 elsewhere)."""
+    from transfer.style_losses import STAT_CHANNELS
+
+    if posture_shift.shape != (len(STAT_CHANNELS),):
+        raise ValueError(f"posture_channels: expected a shift ({len(STAT_CHANNELS)},), got {tuple(posture_shift.shape)}")
+    full = posture_shift.new_zeros(dim)
+    full[STAT_CHANNELS.to(full.device)] = amount * posture_shift
+    return full
 
 
 def match_posture(out: torch.Tensor, content: torch.Tensor, posture_shift: torch.Tensor, weight: float,

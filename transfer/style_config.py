@@ -70,6 +70,10 @@ class ApplyConfig:
     # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
     # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.apply.arm_gate); 0: off
+    arm_travel: float = 0.5  # apply: when a travelling example's style is applied to a clip that travels less than this
+    # share of its ground speed, the arms keep the content's motion and are held where the example holds them against
+    # its pair, in proportion below it (transfer.apply.arm_motion_share; 0.5 chosen on the val splits of both protocols,
+    # docs/RESULTS.md "A walk's arms on a clip done in place"); 0: off
     content_keep: float = 0.5  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
     # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content;
     # 0.5 chosen on the val splits, docs/RESULTS.md "A content keeper"); 0: off
@@ -93,7 +97,7 @@ CONFIG_RANGES = {
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
-    "content_keep_top": (bool, None, None), "still_guard": (bool, None, None),
+    "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0),
 }
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones

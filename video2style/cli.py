@@ -322,6 +322,8 @@ def cmd_learn(args) -> None:
         apply_config = replace(apply_config, posture=args.posture)
     if args.arm_gate is not None:
         apply_config = replace(apply_config, arm_gate=args.arm_gate)
+    if args.arm_travel is not None:
+        apply_config = replace(apply_config, arm_travel=args.arm_travel)
     if args.content_keep is not None:
         apply_config = replace(apply_config, content_keep=args.content_keep)
     out = _writable(args.output or Path(args.input.stem + ".v2s"), "-o")
@@ -751,6 +753,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="at apply, an arm whose hand is further than this from every place the example's hand takes "
                          "(hands raised where the example walks) keeps the content's motion, easing in over 0.2 m "
                          f"(default: {ApplyConfig.arm_gate}; 0: off)")
+    lr.add_argument("--arm-travel", type=_style_option("arm_travel"), metavar="SHARE",
+                    help="at apply, a clip that travels over the ground less than this share of the example's speed "
+                         "(a wave under a walk's style) keeps its arms' motion, held where the example holds its arms "
+                         f"(default: {ApplyConfig.arm_travel}; 0: off)")
     lr.add_argument("--content-keep", type=_style_option("content_keep"), metavar="0-1",
                     help="at apply, the style's change is scaled down (to 3/4, 1/2, 1/4) until the motion encoder reads "
                          "the content's action first again, or with at least this share of its certainty on the "

@@ -11,8 +11,9 @@ see :data:`MARGIN` frames either side of each span; the result equals the whole-
 0.05 cm) except where a foot contact lasts longer than the margin across a span's end, and except for the
 stray-limb guard (``ApplyConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`) and the posture match
 (``ApplyConfig.posture``, :func:`transfer.apply.match_posture`), which need the whole result's time means and are
-not applied to a take streamed a span at a time, nor is the arm gate (``ApplyConfig.arm_gate``,
-:func:`transfer.apply.arm_gate`) or the content keeper (``ApplyConfig.content_keep``, :func:`transfer.apply.keep_content`),
+not applied to a take streamed a span at a time, nor are the arm gate (``ApplyConfig.arm_gate``,
+:func:`transfer.apply.arm_gate`), the arms' hold on a clip done in place (``ApplyConfig.arm_travel``,
+:func:`transfer.apply.keep_arm_motion`) or the content keeper (``ApplyConfig.content_keep``, :func:`transfer.apply.keep_content`),
 applied with them after the whole clip's windows.
 """
 from __future__ import annotations
@@ -282,7 +283,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
             "seconds_transfer": time.time() - t0, "output": str(out_path),
             "stream_note": f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
                            f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take); "
-                           "no stray-limb guard, posture match, arm gate or content keeper (they run on the whole clip)"}
+                           "no stray-limb guard, posture match, arm gate, arm hold or content keeper (they run on the whole clip)"}
     if preview:
         made = [out_path]
         try:

@@ -71,6 +71,10 @@ VARIANTS = {
     "ours-s4": {"delta_smoothing": 4.0},
     "ours-s8": {"delta_smoothing": 8.0},
     "ours-no-still": {"still_guard": False},  # the default before the still-pose guard (transfer.edit.keep_slow_when_still)
+    # 2026-12-05 (17:29-20:29): a travelling example's style on a clip done in place moves its arms only by the
+    # example's posture (transfer.apply.arm_motion_share; the default since then: arm_travel 0.5)
+    "ours-no-armtr": {"arm_travel": 0.0},  # the default before it
+    "ours-armtr025": {"arm_travel": 0.25},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed

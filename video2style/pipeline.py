@@ -153,14 +153,17 @@ ROLLS_NOTE = "its rig rolls its bones its own way: the models read rotations sol
 
 def apply_notes(info: dict) -> list[str]:
     """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): bone
-    rolls solved again (``rolls_conformed``), the still-pose guard (``still_share``) and the content keeper
-    (``content_share``); empty when none of them acted."""
+    rolls solved again (``rolls_conformed``), the still-pose guard (``still_share``), the arms' hold on a clip done
+    in place (``arm_motion_share``) and the content keeper (``content_share``); empty when none of them acted."""
     notes = []
     if info.get("rolls_conformed"):
         notes.append(f"{ROLLS_NOTE} (the file written keeps its own twist)")
     if info.get("still_share", 1.0) < 1.0:
         notes.append(f"the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
                      "fast change was left out (its slow change, the posture, is kept)")
+    if info.get("arm_motion_share", 1.0) < 1.0:
+        notes.append(f"the example travels and this clip stays in place: its arms keep their own motion "
+                     f"({100 * info['arm_motion_share']:.0f}% of the style's), held where the example holds its arms")
     if info.get("content_share", 1.0) < 1.0:
         notes.append(f"style change scaled to {100 * info['content_share']:.0f}% so the action still reads as the "
                      "content's")
