@@ -111,3 +111,30 @@ def test_with_top_a_result_still_read_first_as_the_content_s_action_passes():
     assert keep_content(_Encoder(), _Text(), out, content, 0.8)[1] < 1
     kept, share = keep_content(_Encoder(), _Text(), out, content, 0.8, top=True)
     assert share == 1.0 and torch.equal(kept, out)
+
+
+def test_apply_holds_the_arms_of_a_clip_done_in_place_under_a_travelling_examples_style():
+    from dataclasses import replace
+
+    from tests.test_style import _trained_style, tiny_denoiser
+    from transfer.apply import apply_style_features, keep_arm_motion
+    from transfer.bundle import MethodBundle
+    from transfer.style_config import ApplyConfig, LearnConfig
+    from transfer.style_file import style_model
+
+    prior = tiny_denoiser()
+    model = style_model(prior, _trained_style(prior))
+    bundle = MethodBundle(prior, mean=torch.zeros(FEATURES.dim), std=torch.ones(FEATURES.dim))
+    torch.manual_seed(0)
+    x = torch.randn(90, FEATURES.dim) * 0.1
+    x[:, FEATURES.root_lvel] = torch.tensor([0.0, 0.001])  # 2 cm/s: in place
+    example = x.clone()
+    example[:, FEATURES.root_lvel] = torch.tensor([0.0, 0.06])  # 1.2 m/s: a walk
+    learned, config = LearnConfig(), ApplyConfig(style_scale=20.0, content_keep=0.0, posture=0.0)
+    report: dict = {}
+    plain = apply_style_features(bundle, model, x, learned, replace(config, arm_travel=0.0), report=report)
+    assert "arm_motion_share" not in report
+    held = apply_style_features(bundle, model, x, learned, config, example=example, report=report)
+    assert report["arm_motion_share"] == pytest.approx(0.02 / 0.6, rel=1e-3)
+    assert torch.allclose(held, keep_arm_motion(plain, x, report["arm_motion_share"]), atol=1e-5)
+    assert not torch.allclose(held, plain, atol=1e-3)

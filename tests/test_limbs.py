@@ -268,3 +268,25 @@ def test_a_travelling_examples_style_moves_an_arm_of_a_clip_done_in_place_only_b
         keep_arm_motion(styled, wave[:10], 0.5)
     with pytest.raises(ValueError, match="expected held"):
         keep_arm_motion(styled, wave, 0.5, held[:10])
+
+
+def test_a_posture_moves_each_channel_from_the_contents_mean_towards_the_examples_not_past_them():
+    from motioncore.representation import FEATURES
+    from transfer.apply import POSTURE_TOLERANCE, posture_between
+    from transfer.style_losses import STAT_CHANNELS
+
+    content, example = torch.zeros(50, FEATURES.dim), torch.zeros(30, FEATURES.dim)
+    ch = STAT_CHANNELS
+    example[:, ch[0]], example[:, ch[1]], example[:, ch[4]] = 1.0, -1.0, 1.0
+    shift = torch.zeros(len(ch))
+    shift[0], shift[1], shift[2], shift[3], shift[4] = 0.5, 3.0, 2.0, -0.05, 3.0
+    out = posture_between(shift, content, example)
+    assert out[0] == pytest.approx(0.5) and out[3] == pytest.approx(-0.05)  # towards the example, within tolerance
+    assert out[1] == pytest.approx(POSTURE_TOLERANCE) and out[2] == pytest.approx(POSTURE_TOLERANCE)  # away: cut
+    assert out[4] == pytest.approx(1.0 + POSTURE_TOLERANCE)  # past the example: cut there
+    half = posture_between(shift, content, example, amount=0.5)  # what a half amount carries is bounded the same way
+    assert 0.5 * half[2] == pytest.approx(POSTURE_TOLERANCE) and half[0] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="expected a shift"):
+        posture_between(shift[:5], content, example)
+    with pytest.raises(ValueError, match="expected content and example"):
+        posture_between(shift, content, example[:, :10])

@@ -189,7 +189,8 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
     never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`); with ``config.arm_travel`` above 0,
     the arms of a clip done in place keep its motion when the example travels (:func:`arm_motion_share`,
-    :func:`keep_arm_motion`; the share to ``report["arm_motion_share"]``). With ``config.content_keep`` above 0
+    :func:`keep_arm_motion`; the share to ``report["arm_motion_share"]``; a bundle without the features'
+    normalisation, a test's toy one, has no ground speeds to read). With ``config.content_keep`` above 0
     the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`;
     a bundle without a motion encoder, a test's toy one, has none to read with); the share kept goes to
     ``report["content_share"]`` when a dict is given, and the smallest share of the difference's fast part that the
@@ -208,11 +209,14 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     out = crossfade(chunks, starts, x.shape[0])
     if report is not None and still:
         report["still_share"] = min(still)
+    if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
+        posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)),
+                                        1.0 if strength is None else 2.0 * strength)
     if posture_shift is not None and config.posture > 0:
         out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
-    if example is not None and config.arm_travel > 0:
+    if example is not None and config.arm_travel > 0 and bundle.mean is not None:  # a toy bundle: no speeds to read
         share = arm_motion_share(bundle.denormalize(x), example.to(x.device), config.arm_travel)
         held = None
         if posture_shift is not None and config.posture > 0:
@@ -325,6 +329,32 @@ def posture_channels(posture_shift: torch.Tensor, dim: int, amount: float = 1.0)
     full = posture_shift.new_zeros(dim)
     full[STAT_CHANNELS.to(full.device)] = amount * posture_shift
     return full
+
+
+POSTURE_TOLERANCE = 0.1  # normalised units a posture may carry a channel's time-mean past the content's and the example's
+
+
+def posture_between(posture_shift: torch.Tensor, content: torch.Tensor, example: torch.Tensor,
+                    amount: float = 1.0) -> torch.Tensor:
+    """A style's ``posture_shift (C,)`` (the example's time-mean change against its neutral pair, over
+    :data:`transfer.style_losses.STAT_CHANNELS`) cut, channel by channel, so that ``amount`` of it takes the time-mean
+    of ``content (T, D)`` no further than :data:`POSTURE_TOLERANCE` past where the content and the ``example (T', D)``
+    (both normalised) hold that channel: a posture moves a joint from the content's towards the example's, not
+    elsewhere. A neutral pair drawn with a tilt that neither clip has (a pelvis rolled 18 degrees) says "untilt";
+    carried whole, that tilts the result."""
+    from transfer.style_losses import STAT_CHANNELS
+
+    if posture_shift.shape != (len(STAT_CHANNELS),):
+        raise ValueError(f"posture_between: expected a shift ({len(STAT_CHANNELS)},), got {tuple(posture_shift.shape)}")
+    if content.ndim != 2 or example.ndim != 2 or content.shape[1] != example.shape[1]:
+        raise ValueError(f"posture_between: expected content and example (T, D), got {tuple(content.shape)}, "
+                         f"{tuple(example.shape)}")
+    if amount <= 0:
+        return posture_shift
+    ch = STAT_CHANNELS.to(content.device)
+    m_c, m_e = content[:, ch].mean(0), example[:, ch].mean(0)
+    low, high = torch.minimum(m_c, m_e) - POSTURE_TOLERANCE, torch.maximum(m_c, m_e) + POSTURE_TOLERANCE
+    return (torch.minimum(torch.maximum(m_c + amount * posture_shift, low), high) - m_c) / amount
 
 
 def match_posture(out: torch.Tensor, content: torch.Tensor, posture_shift: torch.Tensor, weight: float,

@@ -68,6 +68,8 @@ class ApplyConfig:
     posture: float = 0.5  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
     # style model's towards the example's change against its neutral pair (transfer.apply.match_posture; 0.5 chosen
     # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
+    posture_between: bool = False  # apply: the posture takes each channel no further than where the content and the
+    # example hold it (transfer.apply.posture_between)
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
     # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.apply.arm_gate); 0: off
     arm_travel: float = 0.5  # apply: when a travelling example's style is applied to a clip that travels less than this
@@ -97,7 +99,7 @@ CONFIG_RANGES = {
     "decode": (str, ("rotations", "guarded", "positions"), None), "lambda_dir": (float, 0.0, 100.0),
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
-    "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0),
+    "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
 }
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones
