@@ -68,8 +68,9 @@ class ApplyConfig:
     posture: float = 0.5  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
     # style model's towards the example's change against its neutral pair (transfer.apply.match_posture; 0.5 chosen
     # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
-    posture_between: bool = False  # apply: the posture takes each channel no further than where the content and the
-    # example hold it (transfer.apply.posture_between)
+    posture_between: bool = True  # apply: the posture takes each channel's time-mean no further than where the content
+    # and the example hold it (transfer.apply.posture_between: a neutral pair drawn tilted would tilt the result;
+    # chosen on the val splits of both protocols, docs/RESULTS.md "A posture between the content's and the example's")
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
     # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.apply.arm_gate); 0: off
     arm_travel: float = 0.5  # apply: when a travelling example's style is applied to a clip that travels less than this

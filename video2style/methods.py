@@ -74,7 +74,7 @@ VARIANTS = {
     # 2026-12-05 (17:29-20:29): a travelling example's style on a clip done in place moves its arms only by the
     # example's posture (transfer.apply.arm_motion_share; the default since then: arm_travel 0.5)
     "ours-no-armtr": {"arm_travel": 0.0},  # the default before it
-    "ours-pb": {"posture_between": True},
+    "ours-no-pb": {"posture_between": False},  # the posture not bounded by the content's and the example's means (before)
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
