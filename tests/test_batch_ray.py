@@ -20,7 +20,10 @@ def _kill_an_apply_worker(stop: threading.Event, killed: list) -> None:
         pids = subprocess.run(["pgrep", "-f", "ray::_apply_job"], check=False, capture_output=True, text=True).stdout.split()
         if pids:
             time.sleep(0.5)  # let it finish an item or two first
-            os.kill(int(pids[0]), signal.SIGKILL)
+            try:
+                os.kill(int(pids[0]), signal.SIGKILL)
+            except ProcessLookupError:  # its task ended meanwhile (a loaded machine): look for the next one
+                continue
             killed.append(int(pids[0]))
         time.sleep(0.05)
 

@@ -117,8 +117,9 @@ def test_apply_holds_the_arms_of_a_clip_done_in_place_under_a_travelling_example
     from dataclasses import replace
 
     from tests.test_style import _trained_style, tiny_denoiser
-    from transfer.apply import apply_style_features, keep_arm_motion
+    from transfer.apply import apply_style_features
     from transfer.bundle import MethodBundle
+    from transfer.posture import keep_arm_motion
     from transfer.style_config import ApplyConfig, LearnConfig
     from transfer.style_file import style_model
 

@@ -196,7 +196,7 @@ def test_hand_reach_is_zero_against_itself_and_the_lift_against_a_raised_copy():
 
 def test_an_arm_doing_what_the_example_never_does_keeps_the_content_and_the_rest_keeps_the_style():
     from motioncore.representation import FEATURES
-    from transfer.apply import ARM_JOINTS, arm_gate, gate_arms
+    from transfer.posture import ARM_JOINTS, arm_gate, gate_arms
 
     example = encode(random_motion(seconds=4, seed=9, amplitude=0.2))
     content = _hands_raised(example, "R", 2.0, slice(25, 60))  # the right hand far up for 1.75 s
@@ -228,7 +228,7 @@ def _travelling(feats: torch.Tensor, speed: float) -> torch.Tensor:
 
 def test_a_travelling_examples_style_moves_an_arm_of_a_clip_done_in_place_only_by_its_posture():
     from motioncore.representation import FEATURES
-    from transfer.apply import (
+    from transfer.posture import (
         ARM_JOINTS,
         arm_motion_share,
         ground_speed,
@@ -272,7 +272,7 @@ def test_a_travelling_examples_style_moves_an_arm_of_a_clip_done_in_place_only_b
 
 def test_a_posture_moves_each_channel_from_the_contents_mean_towards_the_examples_not_past_them():
     from motioncore.representation import FEATURES
-    from transfer.apply import POSTURE_TOLERANCE, posture_between
+    from transfer.posture import POSTURE_TOLERANCE, posture_between
     from transfer.style_losses import STAT_CHANNELS
 
     content, example = torch.zeros(50, FEATURES.dim), torch.zeros(30, FEATURES.dim)

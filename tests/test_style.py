@@ -305,7 +305,7 @@ def test_reconstruction_loss_over_several_windows_is_their_mean():
 
 
 def test_match_posture_moves_the_time_mean_only():
-    from transfer.apply import match_posture
+    from transfer.posture import match_posture
     from transfer.style_losses import STAT_CHANNELS
 
     torch.manual_seed(0)

@@ -66,16 +66,16 @@ class ApplyConfig:
     # this off the segment from the content's place to the example's is drawn back by IK, softly, never left past 1.5x
     # (motioncore.limbs.guard_limbs); 0: off (the ablation)
     posture: float = 0.5  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
-    # style model's towards the example's change against its neutral pair (transfer.apply.match_posture; 0.5 chosen
+    # style model's towards the example's change against its neutral pair (transfer.posture.match_posture; 0.5 chosen
     # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
     posture_between: bool = True  # apply: the posture takes each channel's time-mean no further than where the content
-    # and the example hold it (transfer.apply.posture_between: a neutral pair drawn tilted would tilt the result;
+    # and the example hold it (transfer.posture.posture_between: a neutral pair drawn tilted would tilt the result;
     # chosen on the val splits of both protocols, docs/RESULTS.md "A posture between the content's and the example's")
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
-    # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.apply.arm_gate); 0: off
+    # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.posture.arm_gate); 0: off
     arm_travel: float = 0.5  # apply: when a travelling example's style is applied to a clip that travels less than this
     # share of its ground speed, the arms keep the content's motion and are held where the example holds them against
-    # its pair, in proportion below it (transfer.apply.arm_motion_share; 0.5 chosen on the val splits of both protocols,
+    # its pair, in proportion below it (transfer.posture.arm_motion_share; 0.5 chosen on the val splits of both protocols,
     # docs/RESULTS.md "A walk's arms on a clip done in place"); 0: off
     content_keep: float = 0.5  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
     # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content;

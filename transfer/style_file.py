@@ -52,7 +52,7 @@ class Style:
     example: torch.Tensor | None = None  # the style example, canonical features (T, D), for previews
     source: Path | None = None  # the file it was loaded from: errors about its contents name it
     posture_shift: torch.Tensor | None = None  # (C,): the example's time-mean change of the body channels against its
-    # neutral pair, normalised (transfer.apply.match_posture); None in files learned before 2026-12-05
+    # neutral pair, normalised (transfer.posture.match_posture); None in files learned before 2026-12-05
 
     def configs(self) -> tuple[LearnConfig, ApplyConfig]:
         """The configs the style was learned with (fields its file lacks: today's defaults). A loaded file's

@@ -10,10 +10,10 @@ shift) and each foot joint's lowest height (the contact channels). Decoding, foo
 see :data:`MARGIN` frames either side of each span; the result equals the whole-clip path's (the tests: within
 0.05 cm) except where a foot contact lasts longer than the margin across a span's end, and except for the
 stray-limb guard (``ApplyConfig.limb_guard``, :func:`transfer.apply.guard_stray_limbs`) and the posture match
-(``ApplyConfig.posture``, :func:`transfer.apply.match_posture`), which need the whole result's time means and are
+(``ApplyConfig.posture``, :func:`transfer.posture.match_posture`), which need the whole result's time means and are
 not applied to a take streamed a span at a time, nor are the arm gate (``ApplyConfig.arm_gate``,
-:func:`transfer.apply.arm_gate`), the arms' hold on a clip done in place (``ApplyConfig.arm_travel``,
-:func:`transfer.apply.keep_arm_motion`) or the content keeper (``ApplyConfig.content_keep``, :func:`transfer.apply.keep_content`),
+:func:`transfer.posture.arm_gate`), the arms' hold on a clip done in place (``ApplyConfig.arm_travel``,
+:func:`transfer.posture.keep_arm_motion`) or the content keeper (``ApplyConfig.content_keep``, :func:`transfer.apply.keep_content`),
 applied with them after the whole clip's windows.
 """
 from __future__ import annotations

@@ -52,12 +52,12 @@ VARIANTS = {
     "ours-pp02-dir1": {"lambda_p": 0.2, "lambda_dir": 1.0},
     # 2026-12-05: the direction of the statistics change (word-free, not the encoder's space)
     "ours-statdir1": {"lambda_stat_dir": 1.0},
-    # ... and the example's posture change at apply (transfer.apply.match_posture; 0.5 the default since then)
+    # ... and the example's posture change at apply (transfer.posture.match_posture; 0.5 the default since then)
     "ours-no-posture": {"posture": 0.0},
     "ours-posture03": {"posture": 0.3},
     "ours-posture07": {"posture": 0.7},
     "ours-posture1": {"posture": 1.0},
-    # ... and an arm doing what the example's never does keeps the content's motion (transfer.apply.arm_gate)
+    # ... and an arm doing what the example's never does keeps the content's motion (transfer.posture.arm_gate)
     "ours-arm03": {"arm_gate": 0.3},
     "ours-arm04": {"arm_gate": 0.4},
     # ... and the style's change scaled down where the motion encoder no longer reads the content's action
@@ -72,7 +72,7 @@ VARIANTS = {
     "ours-s8": {"delta_smoothing": 8.0},
     "ours-no-still": {"still_guard": False},  # the default before the still-pose guard (transfer.edit.keep_slow_when_still)
     # 2026-12-05 (17:29-20:29): a travelling example's style on a clip done in place moves its arms only by the
-    # example's posture (transfer.apply.arm_motion_share; the default since then: arm_travel 0.5)
+    # example's posture (transfer.posture.arm_motion_share; the default since then: arm_travel 0.5)
     "ours-no-armtr": {"arm_travel": 0.0},  # the default before it
     "ours-no-pb": {"posture_between": False},  # the posture not bounded by the content's and the example's means (before)
 }
