@@ -219,18 +219,18 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     out = crossfade(chunks, starts, x.shape[0])
     if report is not None and still:
         report["still_share"] = min(still)
+    amount = 1.0 if strength is None else 2.0 * strength  # of the example's posture change (strength 0.5: all)
     if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
-        posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)),
-                                        1.0 if strength is None else 2.0 * strength)
+        posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)), amount)
     if posture_shift is not None and config.posture > 0:
-        out = match_posture(out, x, posture_shift, config.posture, 1.0 if strength is None else 2.0 * strength)
+        out = match_posture(out, x, posture_shift, config.posture, amount)
     if example is not None and config.arm_gate > 0:
         out = gate_arms(out, x, arm_gate(bundle.denormalize(x), example.to(x.device), config.arm_gate))
     if example is not None and config.arm_travel > 0 and bundle.mean is not None:  # a toy bundle: no speeds to read
         share = arm_motion_share(bundle.denormalize(x), example.to(x.device), config.arm_travel)
         held = None
         if posture_shift is not None and config.posture > 0:
-            held = posture_channels(posture_shift.to(out), out.shape[1], 1.0 if strength is None else 2.0 * strength)
+            held = posture_channels(posture_shift.to(out), out.shape[1], amount)
         out = keep_arm_motion(out, x, share, held)
         if report is not None:
             report["arm_motion_share"] = share
