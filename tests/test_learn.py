@@ -167,3 +167,29 @@ def test_neutral_pair_is_the_one_learning_draws(toys):
     _, info = learn_style(bundle, data, data.clip(2), "old", "walk", _config(seed=3))
     assert torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=3), "walk"), info["pair"])
     assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk"), info["pair"])
+
+
+def test_a_bounded_pair_is_the_pair_learning_uses_and_neutral_pair_draws(toys):
+    from transfer.learn import neutral_pair
+    from transfer.posture import POSTURE_TOLERANCE
+    from transfer.style_losses import STAT_CHANNELS
+
+    bundle, cache = toys
+    data = MotionDataset(cache, "train")
+    example, config = data.clip(2), _config(seed=3, pair_between=True)
+    _, drawn = learn_style(bundle, data, example, "old", "walk", _config(seed=3))
+    _, info = learn_style(bundle, data, example, "old", "walk", config)
+    assert torch.equal(neutral_pair(bundle, example, config, "walk", dataset=data), info["pair"])
+    neutral = [data.clip(i) for i, r in enumerate(data.records) if r.style == "normal" and r.caption == "a person walks"]
+    means = torch.stack([x[:, STAT_CHANNELS].mean(0) for x in neutral])
+    m_e, spread = example[:, STAT_CHANNELS].mean(0), 2 * means.std(0, unbiased=False)
+    low = torch.minimum(m_e, means.mean(0) - spread) - POSTURE_TOLERANCE
+    high = torch.maximum(m_e, means.mean(0) + spread) + POSTURE_TOLERANCE
+    m_p = info["pair"][:, STAT_CHANNELS].mean(0)
+    assert (m_p >= low - 1e-5).all() and (m_p <= high + 1e-5).all()
+    shift = info["pair"] - drawn["pair"]  # the pair the prior drew, moved by a constant per body channel only
+    assert shift.abs().max() > 0.1 and torch.allclose(shift, shift[:1].expand_as(shift), atol=1e-5)
+    others = [i for i in range(FEATURES.dim) if i not in set(STAT_CHANNELS.tolist())]
+    assert torch.equal(shift[:, others], torch.zeros_like(shift[:, others]))
+    with pytest.raises(ValueError, match="content source"):
+        neutral_pair(bundle, example, config, "walk")

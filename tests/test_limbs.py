@@ -290,3 +290,32 @@ def test_a_posture_moves_each_channel_from_the_contents_mean_towards_the_example
         posture_between(shift[:5], content, example)
     with pytest.raises(ValueError, match="expected content and example"):
         posture_between(shift, content, example[:, :10])
+
+
+def test_a_neutral_pair_is_held_between_where_the_example_and_neutral_clips_hold_each_channel():
+    from motioncore.representation import FEATURES
+    from transfer.posture import PAIR_SPREAD, POSTURE_TOLERANCE, bound_pair
+    from transfer.style_losses import STAT_CHANNELS
+
+    ch = STAT_CHANNELS
+    gen = torch.Generator().manual_seed(0)
+    example = torch.randn(40, FEATURES.dim, generator=gen) * 0.1
+    example[:, ch[0]] += 1.0  # the example holds channel 0 at 1
+    neutral = [torch.zeros(30, FEATURES.dim) + m for m in (-0.1, 0.1)]  # neutral clips: time-means -0.1 and 0.1
+    pair = torch.randn(40, FEATURES.dim, generator=gen) * 0.1
+    pair[:, ch[0]] += 0.5  # between them: kept
+    pair[:, ch[1]] += 3.0  # a tilt neither has: brought back to the span's edge, the motion over time kept
+    pair[:, ch[2]] -= 3.0
+    trajectory = [i for i in range(FEATURES.dim) if i not in set(ch.tolist())]
+    pair[:, trajectory] += 5.0  # the path is the example's (inpainted): never moved
+    out = bound_pair(pair, example, neutral)
+    spread = PAIR_SPREAD * 0.1
+    high = max(float(example[:, ch[1]].mean()), spread) + POSTURE_TOLERANCE
+    low = min(float(example[:, ch[2]].mean()), -spread) - POSTURE_TOLERANCE
+    assert torch.equal(out[:, ch[0]], pair[:, ch[0]]) and torch.equal(out[:, trajectory], pair[:, trajectory])
+    assert float(out[:, ch[1]].mean()) == pytest.approx(high, abs=1e-5)
+    assert float(out[:, ch[2]].mean()) == pytest.approx(low, abs=1e-5)
+    assert torch.allclose(out[:, ch[1]] - out[:, ch[1]].mean(), pair[:, ch[1]] - pair[:, ch[1]].mean(), atol=1e-5)
+    assert torch.equal(bound_pair(pair, example, []), pair)  # no neutral clips of the action: as it is
+    with pytest.raises(ValueError, match="expected pair and example"):
+        bound_pair(pair[:10], example, neutral)

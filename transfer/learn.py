@@ -2,6 +2,8 @@
 
 1. The neutral pair: the style example noised to step G and denoised by the prior under the neutral caption,
    its root trajectory inpainted at every step (eq. 3-5; :func:`transfer.edit.neutralize`).
+   Each body channel's time-mean is then held where the example or the content source's neutral clips of its
+   action hold it (:func:`transfer.posture.bound_pair`): a tilt the prior drew is not learned as the style's.
 2. :func:`learn_style`: a copy of the prior with LoRA adapters learns to turn the neutral pair, noised K steps,
    into the example (L_rec, eq. 10, :func:`reconstruction_loss`), while content clips from the dataset, passed
    through the style model, change in the motion encoder's space as the example differs from its pair and stay
@@ -23,6 +25,7 @@ from transfer.captions import caption
 from transfer.device import model_device
 from transfer.edit import TRAJECTORY, neutralize
 from transfer.lora import add_lora, lora_state
+from transfer.posture import bound_pair
 from transfer.sampling import denoising_steps, noise_keeping, overwrite
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import MIN_ITERATIONS, ApplyConfig, LearnConfig, config_dict
@@ -73,6 +76,8 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
     if config.pair_generation:
         say("generating the style-neutral pair")
         pair = _pair(bundle, example, neutral_text, config, gen)
+        if config.pair_between:
+            pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, device))
     else:
         pair = example.clone()
 
@@ -175,17 +180,30 @@ def _pair(bundle, example: torch.Tensor, neutral_text: str, config: LearnConfig,
     return neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
 
 
-def neutral_pair(bundle, example: torch.Tensor, config: LearnConfig, content_text: str | None = None) -> torch.Tensor:
+def _neutral_clips(dataset, text: str, device) -> list[torch.Tensor]:
+    """The neutral ('normal') clips of ``dataset`` whose caption is ``text``, normalised ``(T_i, D)``."""
+    return [dataset.clip(i).to(device) for i, r in enumerate(dataset.records) if r.style == "normal" and r.caption == text]
+
+
+def neutral_pair(bundle, example: torch.Tensor, config: LearnConfig, content_text: str | None = None,
+                 dataset=None) -> torch.Tensor:
     """The style-neutral pair ``(T, D)`` of a normalised ``example (T, D)`` exactly as :func:`learn_style` draws it
-    with ``config`` (its seed): ``content_text`` as learning is given it (default: what the motion encoder reads)."""
+    with ``config`` (its seed): ``content_text`` as learning is given it (default: what the motion encoder reads);
+    ``dataset``: the content source learning is given (needed when ``config.pair_between``)."""
     from transfer.apply import read_motion
 
     if content_text is None:
         content_text = read_motion(bundle.motion_encoder, bundle.text_encoder, example).content
     neutral_text = content_text if content_text.startswith("a person") else caption(content_text, None)
     device = model_device(bundle.prior)
+    if config.pair_between and dataset is None:
+        raise ValueError("neutral_pair: expected the content source (dataset) with config.pair_between")
     torch.manual_seed(config.seed)
-    return _pair(bundle, example.to(device), neutral_text, config, torch.Generator().manual_seed(config.seed)).cpu()
+    example = example.to(device)
+    pair = _pair(bundle, example, neutral_text, config, torch.Generator().manual_seed(config.seed))
+    if config.pair_between:
+        pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, device))
+    return pair.cpu()
 
 
 def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:

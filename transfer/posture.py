@@ -1,6 +1,7 @@
 """Where a style puts the body, applied after the style's change (:func:`transfer.apply.apply_style_features`):
 the example's posture drawn onto the result (:func:`match_posture`), bounded between where the content and the
-example hold each joint (:func:`posture_between`); an arm doing what the example's never does kept as the content's
+example hold each joint (:func:`posture_between`); a neutral pair held where the example or neutral clips
+hold each joint (:func:`bound_pair`, while learning); an arm doing what the example's never does kept as the content's
 (:func:`arm_gate`, off by default); and the arms of a clip done in place under a travelling example's style
 (:func:`arm_motion_share`, :func:`keep_arm_motion`). Features ``(T, D)``, normalised unless a function says raw."""
 from __future__ import annotations
@@ -123,6 +124,33 @@ def posture_between(posture_shift: torch.Tensor, content: torch.Tensor, example:
     m_c, m_e = content[:, ch].mean(0), example[:, ch].mean(0)
     low, high = torch.minimum(m_c, m_e) - POSTURE_TOLERANCE, torch.maximum(m_c, m_e) + POSTURE_TOLERANCE
     return (torch.minimum(torch.maximum(m_c + amount * posture_shift, low), high) - m_c) / amount
+
+
+PAIR_SPREAD = 2.0  # standard deviations of the neutral clips' time-means that count as where they hold a channel
+
+
+def bound_pair(pair: torch.Tensor, example: torch.Tensor, neutral: list[torch.Tensor]) -> torch.Tensor:
+    """The neutral ``pair (T, D)`` of ``example (T, D)`` with each body channel's time-mean
+    (:data:`transfer.style_losses.STAT_CHANNELS`) brought within :data:`POSTURE_TOLERANCE` of the span from where the
+    example holds it to where neutral clips of its action hold it (``neutral``: normalised ``(T_i, D)``; their
+    time-means' mean +- :data:`PAIR_SPREAD` standard deviations), by a constant offset. A pair is the example done
+    neutrally: a tilt that neither the example nor neutral clips have (a pelvis the prior drew rolled 18 degrees)
+    would be learned as the style's. No neutral clips: the pair as it is."""
+    if pair.ndim != 2 or pair.shape != example.shape or pair.shape[-1] != FEATURES.dim:
+        raise ValueError(f"bound_pair: expected pair and example (T, {FEATURES.dim}) alike, got {tuple(pair.shape)} "
+                         f"and {tuple(example.shape)}")
+    if not neutral:
+        return pair
+    ch = STAT_CHANNELS.to(pair.device)
+    means = torch.stack([x[:, ch].mean(0).to(pair) for x in neutral])
+    centre = means.mean(0)
+    spread = PAIR_SPREAD * means.std(0, unbiased=False)
+    m_e, m_p = example[:, ch].mean(0), pair[:, ch].mean(0)
+    low = torch.minimum(m_e, centre - spread) - POSTURE_TOLERANCE
+    high = torch.maximum(m_e, centre + spread) + POSTURE_TOLERANCE
+    out = pair.clone()
+    out[:, ch] += torch.minimum(torch.maximum(m_p, low), high) - m_p
+    return out
 
 
 def match_posture(out: torch.Tensor, content: torch.Tensor, posture_shift: torch.Tensor, weight: float,

@@ -24,6 +24,7 @@ from motioncore.representation import FEATURES
 from transfer.lora import add_lora, load_lora_state, set_gain
 from transfer.style_config import (
     CONFIG_RANGES,
+    LEARNED_WITHOUT,
     MAX_RANK,
     ApplyConfig,
     LearnConfig,
@@ -55,9 +56,10 @@ class Style:
     # neutral pair, normalised (transfer.posture.match_posture); None in files learned before 2026-12-05
 
     def configs(self) -> tuple[LearnConfig, ApplyConfig]:
-        """The configs the style was learned with (fields its file lacks: today's defaults). A loaded file's
-        config was validated by :meth:`load`."""
-        return split_config(self.meta.get("config", {}))
+        """The configs the style was learned with (fields its file lacks: today's defaults, or how learning ran
+        before they existed, :data:`transfer.style_config.LEARNED_WITHOUT`). A loaded file's config was validated by
+        :meth:`load`."""
+        return split_config(LEARNED_WITHOUT | self.meta.get("config", {}))
 
     def save(self, path: Path) -> None:
         """Write atomically under a temporary name of its own (two writers never share one). A full or

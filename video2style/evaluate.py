@@ -63,7 +63,7 @@ def _key(*parts) -> str:
     return h.hexdigest()
 
 
-ADDED_OFF = ("lambda_stat_dir",)  # learning fields added later: off (0), a style cache's key leaves them out
+ADDED_OFF = ("lambda_stat_dir", "pair_between")  # learning fields added later: off (0), a style cache's key leaves them out
 
 
 class OnTheFly:
@@ -106,6 +106,8 @@ class OnTheFly:
         if key not in self.shared and stored is not None and stored.is_file():
             learned = Style.load(stored)
             self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"])
+            if learned.posture_shift is not None:  # the pair's change, as learning drew it
+                self.shared.setdefault(self._posture_key(style_example), learned.posture_shift)
         if key not in self.shared:
             t0 = time.time()
             content_label = read_motion(self.m.motion_encoder, self.m.text_encoder, style_example).content
@@ -146,7 +148,8 @@ class OnTheFly:
                                     example=self.data.denormalize(style_example))
 
     def _posture_key(self, style_example: torch.Tensor) -> str:
-        return "posture" + _key(style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
+        parts = (style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
+        return "posture" + _key(*parts, *(("between",) if self.learned.pair_between else ()))
 
     def _posture(self, style_example: torch.Tensor) -> torch.Tensor | None:
         """The example's time-mean change against its neutral pair (drawn as learning draws it), for ``posture``."""
@@ -157,7 +160,7 @@ class OnTheFly:
             from transfer.learn import neutral_pair
             from transfer.style_losses import posture_shift
 
-            self.shared[key] = posture_shift(style_example, neutral_pair(self.m, style_example, self.learned))
+            self.shared[key] = posture_shift(style_example, neutral_pair(self.m, style_example, self.learned, dataset=self.data))
         return self.shared[key]
 
 

@@ -75,6 +75,9 @@ VARIANTS = {
     # example's posture (transfer.posture.arm_motion_share; the default since then: arm_travel 0.5)
     "ours-no-armtr": {"arm_travel": 0.0},  # the default before it
     "ours-no-pb": {"posture_between": False},  # the posture not bounded by the content's and the example's means (before)
+    # ... and the neutral pair's body held where the example or neutral clips of its action hold it while learning
+    # (transfer.posture.bound_pair; "ours-pairb" before it became the default)
+    "ours-no-pairb": {"pair_between": False},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
