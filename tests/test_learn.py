@@ -165,8 +165,8 @@ def test_neutral_pair_is_the_one_learning_draws(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
     _, info = learn_style(bundle, data, data.clip(2), "old", "walk", _config(seed=3))
-    assert torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=3), "walk"), info["pair"])
-    assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk"), info["pair"])
+    assert torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=3), "walk", dataset=data), info["pair"])
+    assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk", dataset=data), info["pair"])
 
 
 def test_a_bounded_pair_is_the_pair_learning_uses_and_neutral_pair_draws(toys):
@@ -177,7 +177,7 @@ def test_a_bounded_pair_is_the_pair_learning_uses_and_neutral_pair_draws(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
     example, config = data.clip(2), _config(seed=3, pair_between=True)
-    _, drawn = learn_style(bundle, data, example, "old", "walk", _config(seed=3))
+    _, drawn = learn_style(bundle, data, example, "old", "walk", _config(seed=3, pair_between=False))
     _, info = learn_style(bundle, data, example, "old", "walk", config)
     assert torch.equal(neutral_pair(bundle, example, config, "walk", dataset=data), info["pair"])
     neutral = [data.clip(i) for i, r in enumerate(data.records) if r.style == "normal" and r.caption == "a person walks"]

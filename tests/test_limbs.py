@@ -319,3 +319,54 @@ def test_a_neutral_pair_is_held_between_where_the_example_and_neutral_clips_hold
     assert torch.equal(bound_pair(pair, example, []), pair)  # no neutral clips of the action: as it is
     with pytest.raises(ValueError, match="expected pair and example"):
         bound_pair(pair[:10], example, neutral)
+
+
+def _hand_channels(side: str) -> list[int]:
+    from motioncore.representation import FEATURES
+    from motioncore.skeleton import CANONICAL
+
+    j = CANONICAL.skeleton.index(f"Hand_{side}") - 1  # the positions hold joints 1.. (the root excluded)
+    return list(range(FEATURES.positions.start + 3 * j, FEATURES.positions.start + 3 * j + 3))
+
+
+def test_an_arm_held_far_from_where_the_pair_holds_it_keeps_its_own_time_mean():
+    from motioncore.limbs import limb_places
+    from motioncore.representation import FEATURES
+    from motioncore.skeleton import CANONICAL
+    from transfer.posture import (
+        ARM_GATE_WIDTH,
+        ARM_JOINTS,
+        arm_place_share,
+        keep_arm_place,
+        pair_hand_places,
+    )
+    from transfer.style_losses import STAT_CHANNELS
+
+    gen = torch.Generator().manual_seed(0)
+    example = torch.randn(30, FEATURES.dim, generator=gen)
+    mean, std = torch.zeros(FEATURES.dim), torch.full((FEATURES.dim,), 0.5)
+    shift = torch.zeros(len(STAT_CHANNELS))
+    assert torch.allclose(pair_hand_places(example, shift, mean, std), limb_places(example)[:2], atol=1e-5)
+    left_x = _hand_channels("L")[0]
+    shift[(STAT_CHANNELS == left_x).nonzero()[0, 0]] = 0.4  # the example holds its left hand 0.2 m further along x
+    hands = pair_hand_places(example, shift, mean, std)
+    assert float(hands[0, 0]) == pytest.approx(float(limb_places(example)[0, 0]) - 0.2, abs=1e-5)
+
+    content = torch.zeros(40, FEATURES.dim)
+    pair = torch.tensor([[0.0, 1.0, 0.2], [0.0, 1.0, 0.2]])
+    content[:, _hand_channels("L")] = pair[0]  # the left hand where the pair holds it, the right 0.4 m above
+    content[:, _hand_channels("R")] = pair[1] + torch.tensor([0.0, 0.4, 0.0])
+    assert arm_place_share(content, pair, 0.3).tolist() == pytest.approx([1.0, 1 - 0.1 / ARM_GATE_WIDTH], abs=1e-5)
+    assert arm_place_share(content, pair, 0.1).tolist() == pytest.approx([1.0, 0.0])
+
+    out = content + torch.randn(40, FEATURES.dim, generator=gen) + 1.0  # a style's change: a mean and a motion
+    kept = keep_arm_place(out, content, torch.tensor([1.0, 0.0]))
+    right = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_R") for n in ARM_JOINTS])
+    others = [c for c in range(FEATURES.dim) if c not in set(right)]
+    assert torch.equal(kept[:, others], out[:, others])  # the left arm and the body: as the style made them
+    assert torch.allclose(kept[:, right].mean(0), content[:, right].mean(0), atol=1e-5)  # the right: its own mean
+    assert torch.allclose(kept[:, right] - kept[:, right].mean(0), out[:, right] - out[:, right].mean(0), atol=1e-5)
+    with pytest.raises(ValueError, match="expected a radius"):
+        arm_place_share(content, pair, 0.0)
+    with pytest.raises(ValueError, match="expected out and content"):
+        keep_arm_place(out, content, torch.ones(3))
