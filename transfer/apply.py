@@ -20,12 +20,9 @@ from transfer.edit import neutralize, stylize
 from transfer.posture import (
     arm_gate,
     arm_motion_share,
-    arm_place_share,
     gate_arms,
     keep_arm_motion,
-    keep_arm_place,
     match_posture,
-    pair_hand_places,
     posture_between,
     posture_channels,
 )
@@ -223,7 +220,6 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     if report is not None and still:
         report["still_share"] = min(still)
     amount = 1.0 if strength is None else 2.0 * strength  # of the example's posture change (strength 0.5: all)
-    style_shift = posture_shift  # as learning measured it (the pair's hands: arm_place)
     if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
         posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)), amount)
     if posture_shift is not None and config.posture > 0:
@@ -238,12 +234,6 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
         out = keep_arm_motion(out, x, share, held)
         if report is not None:
             report["arm_motion_share"] = share
-    if style_shift is not None and example is not None and config.arm_place > 0 and bundle.mean is not None:
-        hands = pair_hand_places(example.to(x), style_shift.to(x), bundle.mean.to(x), bundle.std.to(x))
-        shares = arm_place_share(bundle.denormalize(x), hands, config.arm_place)
-        out = keep_arm_place(out, x, shares)
-        if report is not None:
-            report["arm_place_share"] = shares.tolist()
     if config.content_keep > 0 and bundle.motion_encoder is not None:
         out, share = keep_content(bundle.motion_encoder, bundle.text_encoder, out, x, config.content_keep,
                                   config.content_keep_top)

@@ -3,13 +3,12 @@ the example's posture drawn onto the result (:func:`match_posture`), bounded bet
 example hold each joint (:func:`posture_between`); a neutral pair held where the example or neutral clips
 hold each joint (:func:`bound_pair`, while learning); an arm doing what the example's never does kept as the content's
 (:func:`arm_gate`, off by default); and the arms of a clip done in place under a travelling example's style
-(:func:`arm_motion_share`, :func:`keep_arm_motion`); an arm held far from where the example's pair holds it
-keeps its own time-mean (:func:`arm_place_share`, :func:`keep_arm_place`). Features ``(T, D)``, normalised unless a function says raw."""
+(:func:`arm_motion_share`, :func:`keep_arm_motion`). Features ``(T, D)``, normalised unless a function says raw."""
 from __future__ import annotations
 
 import torch
 
-from motioncore.limbs import hand_reach, limb_places
+from motioncore.limbs import hand_reach
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
 from transfer.edit import smooth_time
@@ -90,45 +89,6 @@ def keep_arm_motion(out: torch.Tensor, content: torch.Tensor, share: float,
         mean = change.mean(0, keepdim=True)
         target = mean if held is None else share * mean + (1 - share) * held[ch]
         out[:, ch] = content[:, ch] + target + share * (change - mean)
-    return out
-
-
-def pair_hand_places(example: torch.Tensor, posture_shift: torch.Tensor, mean: torch.Tensor,
-                     std: torch.Tensor) -> torch.Tensor:
-    """Where the example's neutral pair holds each hand on average, ``(2, 3)`` metres in the hips' facing frame (left,
-    right): the ``example``'s time-mean (raw features ``(T, D)``) less its ``posture_shift (C,)`` against the pair
-    (normalised by ``mean``/``std (D,)``), as learning measured it."""
-    if example.ndim != 2 or example.shape[1] != FEATURES.dim:
-        raise ValueError(f"pair_hand_places: expected raw features (T, {FEATURES.dim}), got {tuple(example.shape)}")
-    held = (example.mean(0) - mean) / std - posture_channels(posture_shift.to(example), FEATURES.dim)
-    return limb_places((held * std + mean)[None])[:2]
-
-
-def arm_place_share(content: torch.Tensor, pair_hands: torch.Tensor, radius: float) -> torch.Tensor:
-    """How much of the style's time-mean change each arm of ``content`` (raw features ``(T, D)``) keeps, ``(2,)``
-    left then right: all where its hand's time-mean place lies within ``radius`` metres of where the example's
-    neutral pair holds that hand (``pair_hands (2, 3)``, :func:`pair_hand_places`), none past ``radius +
-    ARM_GATE_WIDTH``. A posture (forearms carried forward, elbows bent) is a change to an arm held as the pair holds
-    it; an arm that waves over the head is elsewhere, and the same offset of its joints' angles undoes the wave."""
-    if radius <= 0:
-        raise ValueError(f"arm_place_share: expected a radius above 0, got {radius}")
-    if pair_hands.shape != (2, 3):
-        raise ValueError(f"arm_place_share: expected pair_hands (2, 3), got {tuple(pair_hands.shape)}")
-    d = (limb_places(content)[:2] - pair_hands.to(content)).norm(dim=-1)
-    return (1 - (d - radius) / ARM_GATE_WIDTH).clamp(0, 1)
-
-
-def keep_arm_place(out: torch.Tensor, content: torch.Tensor, shares: torch.Tensor) -> torch.Tensor:
-    """``out (T, D)``, stylised from ``content (T, D)`` (features, normalised or not alike), with each arm's time-mean
-    change (shoulder to hand, positions and rotations) scaled by its share ``(2,)`` (:func:`arm_place_share`); how
-    the style changes the arm's motion around that mean is kept."""
-    if out.shape != content.shape or out.ndim != 2 or shares.shape != (2,):
-        raise ValueError(f"keep_arm_place: expected out and content (T, D) alike and shares (2,), got "
-                         f"{tuple(out.shape)}, {tuple(content.shape)}, {tuple(shares.shape)}")
-    out = out.clone()
-    for side, w in zip("LR", shares.tolist()):
-        ch = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS])
-        out[:, ch] -= (1 - w) * (out[:, ch] - content[:, ch]).mean(0)
     return out
 
 

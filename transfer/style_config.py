@@ -87,9 +87,6 @@ class ApplyConfig:
     # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
     still_guard: bool = True  # difference mode: where the style model redraws the content nearly without movement (it
     # collapsed onto a still pose), only the slow part of its difference is kept (transfer.edit.keep_slow_when_still)
-    arm_place: float = 0.0  # apply: metres; an arm whose hand the content holds (time-mean) further than this from where
-    # the example's neutral pair holds it keeps its own time-mean, easing over ARM_GATE_WIDTH (a wave's raised arm takes
-    # no walk's elbow posture; transfer.posture.arm_place_share); 0: off; needs a style file with a posture change
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
@@ -107,7 +104,7 @@ CONFIG_RANGES = {
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
     "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
-    "pair_between": (bool, None, None), "arm_place": (float, 0.0, 2.0),
+    "pair_between": (bool, None, None),
 }
 # learning fields a style file written before they existed was learned without (their default since differs):
 # read so from a file that lacks them (:meth:`transfer.style_file.Style.configs`)

@@ -78,8 +78,6 @@ VARIANTS = {
     # ... and the neutral pair's body held where the example or neutral clips of its action hold it while learning
     # (transfer.posture.bound_pair; "ours-pairb" before it became the default)
     "ours-no-pairb": {"pair_between": False},
-    # ... and an arm held far from where the example's pair holds it keeps its own time-mean (transfer.posture.arm_place_share)
-    "ours-armp03": {"arm_place": 0.3},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
