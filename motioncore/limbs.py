@@ -22,6 +22,7 @@ from motioncore.representation import FEATURES, facing_frame
 from motioncore.skeleton import CANONICAL, CanonicalSpec
 
 LIMBS = ("Hand_L", "Hand_R", "Foot_L", "Foot_R")  # the end effectors whose carriage a style may change
+HANDS = ("Hand_L", "Hand_R")
 GUARD_PASSES = 6  # IK passes of guard_limbs: a chain that cannot reach its target on every frame gets the rest again
 GUARD_TOLERANCE = 0.005  # metres: a place this close to its target is left alone
 
@@ -82,12 +83,25 @@ def allowed_stray(stray: torch.Tensor, start: float) -> torch.Tensor:
     return torch.where(stray <= start, stray, start + width * torch.tanh((stray - start) / width))
 
 
+def swing_limb(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, parents, root: int, end: int,
+               target: torch.Tensor) -> torch.Tensor:
+    """New local rotations ``(T, J, 4)`` turning the chain from joint ``root`` as one piece, frame by frame, so that
+    its ``end`` points at ``target (T, 3)`` from ``root``: only ``root``'s rotation changes (the joints below keep
+    their local angles; the end's distance from ``root`` stays). ``grot``/``gpos`` ``(T, J, 4/3)`` global."""
+    swing = quat.between(gpos[:, end] - gpos[:, root], target - gpos[:, root])
+    out = lrot.clone()
+    out[:, root] = quat.mul(quat.inv(grot[:, parents[root]]), quat.mul(swing, grot[:, root]))
+    return out
+
+
 def guard_limbs(motion: Motion, content_places: torch.Tensor, example_places: torch.Tensor, start: float,
-                spec: CanonicalSpec = CANONICAL) -> tuple[Motion, torch.Tensor]:
+                spec: CanonicalSpec = CANONICAL, swing_hands: bool = False) -> tuple[Motion, torch.Tensor]:
     """Draw each stray limb of a canonical ``motion`` back towards the segment from ``content_places`` to
     ``example_places`` (both ``(4, 3)``, :func:`limb_places`), so its stray is at most :func:`allowed_stray`
     of ``start`` metres. The limb's end moves by one offset in the facing frame (the feet's horizontal only: the
-    foot cleanup keeps them on the floor), its chain solved by two-bone IK (the end keeps its global rotation).
+    foot cleanup keeps them on the floor), its chain solved by two-bone IK (the end keeps its global rotation);
+    with ``swing_hands`` an arm is swung at the shoulder instead (:func:`swing_limb`: its elbow and wrist keep
+    their angles, so a wave stays a wave).
     Returns the motion (the same object when no limb strays) and the offsets ``(4, 3)`` applied, in metres."""
     if motion.skeleton.names != spec.skeleton.names:
         raise ValueError("guard_limbs: expected a motion on the canonical skeleton")
@@ -115,7 +129,10 @@ def guard_limbs(motion: Motion, content_places: torch.Tensor, example_places: to
         for i in todo:
             hip, knee, end = chains[i]
             goal = gpos[:, end] + quat.mul_vec(yaw, shift[i].expand(gpos.shape[0], 3))
-            lrot = two_bone_ik(grot, gpos, lrot, sk.parents, hip, knee, end, goal)
+            if swing_hands and LIMBS[i] in HANDS:
+                lrot = swing_limb(grot, gpos, lrot, sk.parents, hip, end, goal)
+            else:
+                lrot = two_bone_ik(grot, gpos, lrot, sk.parents, hip, knee, end, goal)
             grot, gpos = fk(lrot, motion.lpos, sk.parents)  # the chains are disjoint; the facing yaw does not move
         yaw, local = _facing(gpos, spec)
         moved = local.mean(0)
@@ -131,7 +148,6 @@ def _ankles(spec: CanonicalSpec) -> tuple[str, ...]:
     return tuple(spec.skeleton.names[ankle] for _, _, ankle in spec.legs)
 
 
-HANDS = ("Hand_L", "Hand_R")
 REACH_CHUNK = 4096  # content frames compared with the example at a time: bounds the distance table of a long take
 
 

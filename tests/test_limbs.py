@@ -319,3 +319,30 @@ def test_a_neutral_pair_is_held_between_where_the_example_and_neutral_clips_hold
     assert torch.equal(bound_pair(pair, example, []), pair)  # no neutral clips of the action: as it is
     with pytest.raises(ValueError, match="expected pair and example"):
         bound_pair(pair[:10], example, neutral)
+
+
+def test_a_swung_arm_keeps_its_elbow_and_wrist_angles_and_comes_back_towards_the_segment():
+    from motioncore.limbs import swing_limb
+    from motioncore.kinematics import fk
+
+    motion = random_motion(seconds=4, seed=3, amplitude=0.3)
+    sk = CANONICAL.skeleton
+    upper, lower, hand = sk.index("UpperArm_L"), sk.index("LowerArm_L"), sk.index("Hand_L")
+    grot, gpos = fk(motion.lrot, motion.lpos, sk.parents)
+    target = gpos[:, upper] + torch.tensor([0.0, -0.4, 0.1])  # a place below the shoulder, frame by frame
+    lrot = swing_limb(grot, gpos, motion.lrot, sk.parents, upper, hand, target)
+    changed = (lrot - motion.lrot).abs().amax(dim=(0, 2))
+    assert changed[upper] > 0 and changed[[j for j in range(sk.num_joints) if j != upper]].max() == 0
+    _, gpos2 = fk(lrot, motion.lpos, sk.parents)
+    reach = gpos[:, hand] - gpos[:, upper]
+    assert torch.allclose((gpos2[:, hand] - gpos2[:, upper]).norm(dim=-1), reach.norm(dim=-1), atol=1e-5)
+    aim = torch.nn.functional.normalize(target - gpos[:, upper], dim=-1)
+    assert torch.allclose(torch.nn.functional.normalize(gpos2[:, hand] - gpos2[:, upper], dim=-1), aim, atol=1e-4)
+
+    places = motion_limb_places(motion)
+    content, example = places - _off(HAND_L, [0.3, 0.0, 0.0]), places - _off(HAND_L, [0.3, 0.0, 0.05])
+    out, _ = guard_limbs(motion, content, example, start=0.08, swing_hands=True)
+    after = motion_limb_places(out)
+    stray = (after - nearest_on_segment(content, example, after)).norm(dim=-1)
+    assert float(stray[HAND_L]) < 0.2  # 0.3 before: drawn back, the reach an arm swung at the shoulder has
+    assert torch.allclose(out.lrot[:, [lower, hand]], motion.lrot[:, [lower, hand]], atol=1e-6)  # normalised only

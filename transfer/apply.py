@@ -282,7 +282,8 @@ def guard_stray_limbs(result: Motion, content: Motion, example: torch.Tensor, co
         return result
     if result.num_frames != content.num_frames:
         raise ValueError(f"guard_stray_limbs: expected a content of {result.num_frames} frames, got {content.num_frames}")
-    guarded, _ = guard_limbs(result, motion_limb_places(content), limb_places(example.float()), config.limb_guard)
+    guarded, _ = guard_limbs(result, motion_limb_places(content), limb_places(example.float()), config.limb_guard,
+                             swing_hands=config.guard_swing)
     return guarded
 
 

@@ -87,6 +87,8 @@ class ApplyConfig:
     # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
     still_guard: bool = True  # difference mode: where the style model redraws the content nearly without movement (it
     # collapsed onto a still pose), only the slow part of its difference is kept (transfer.edit.keep_slow_when_still)
+    guard_swing: bool = False  # apply: the stray-limb guard moves a hand by swinging its arm at the shoulder (the elbow and
+    # wrist keep their angles) instead of two-bone IK (motioncore.limbs.swing_limb)
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were
@@ -104,7 +106,7 @@ CONFIG_RANGES = {
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
     "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
-    "pair_between": (bool, None, None),
+    "pair_between": (bool, None, None), "guard_swing": (bool, None, None),
 }
 # learning fields a style file written before they existed was learned without (their default since differs):
 # read so from a file that lacks them (:meth:`transfer.style_file.Style.configs`)
