@@ -322,8 +322,8 @@ def test_a_neutral_pair_is_held_between_where_the_example_and_neutral_clips_hold
 
 
 def test_a_swung_arm_keeps_its_elbow_and_wrist_angles_and_comes_back_towards_the_segment():
-    from motioncore.limbs import swing_limb
     from motioncore.kinematics import fk
+    from motioncore.limbs import swing_limb
 
     motion = random_motion(seconds=4, seed=3, amplitude=0.3)
     sk = CANONICAL.skeleton
