@@ -3,6 +3,7 @@
     python benchmarks/stray_limbs.py --style S.v2s [S2.v2s ...] --content A.bvh [B.bvh ...] [--strength 0.5]
     python benchmarks/stray_limbs.py --learn EXAMPLE.mp4 [EXAMPLE.bvh ...] --content ... [--styles-dir DIR]
     python benchmarks/stray_limbs.py ... --limb-guard 0     # without the apply-time guard (the ablation)
+    python benchmarks/stray_limbs.py ... --guard-swing off  # the guard bends arms by two-bone IK (before)
 
 For each style x content clip, the result is made as ``apply`` makes it (:func:`transfer.apply.stylize_motion`),
 and for each hand and foot its time-mean place in the hips' facing frame (canonical body) is compared with the
@@ -29,6 +30,9 @@ def main() -> None:
                     help="apply with this decoding instead of the style's own (ApplyConfig.decode)")
     ap.add_argument("--limb-guard", type=float,
                     help="apply with this stray-limb guard (metres; 0: off) instead of the style's own (ApplyConfig.limb_guard)")
+    ap.add_argument("--guard-swing", choices=["on", "off"],
+                    help="the guard swings an arm at the shoulder (on) or bends it by IK (off) instead of the style's own "
+                         "choice (ApplyConfig.guard_swing)")
     args = ap.parse_args()
 
     import torch
@@ -57,6 +61,8 @@ def main() -> None:
             style.meta["config"]["decode"] = args.decode
         if args.limb_guard is not None:
             style.meta["config"]["limb_guard"] = args.limb_guard
+        if args.guard_swing is not None:
+            style.meta["config"]["guard_swing"] = args.guard_swing == "on"
         model = style_model(m.prior, style)
         example = style.example.float()
         for clip in clips:

@@ -87,8 +87,9 @@ class ApplyConfig:
     # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
     still_guard: bool = True  # difference mode: where the style model redraws the content nearly without movement (it
     # collapsed onto a still pose), only the slow part of its difference is kept (transfer.edit.keep_slow_when_still)
-    guard_swing: bool = False  # apply: the stray-limb guard moves a hand by swinging its arm at the shoulder (the elbow and
-    # wrist keep their angles) instead of two-bone IK (motioncore.limbs.swing_limb)
+    guard_swing: bool = True  # apply: the stray-limb guard moves a hand by swinging its arm at the shoulder (the elbow and
+    # wrist keep their angles: a wave's elbow is what makes it a wave) instead of two-bone IK (motioncore.limbs.swing_limb;
+    # chosen on the val splits of both protocols, docs/RESULTS.md "The stray-limb guard swings an arm")
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were

@@ -78,8 +78,9 @@ VARIANTS = {
     # ... and the neutral pair's body held where the example or neutral clips of its action hold it while learning
     # (transfer.posture.bound_pair; "ours-pairb" before it became the default)
     "ours-no-pairb": {"pair_between": False},
-    # ... and the stray-limb guard swinging an arm at the shoulder instead of bending its elbow (motioncore.limbs.swing_limb)
-    "ours-swing": {"guard_swing": True},
+    # ... and the stray-limb guard swinging an arm at the shoulder instead of bending its elbow (motioncore.limbs.swing_limb;
+    # "ours-swing" before it became the default)
+    "ours-guard-ik": {"guard_swing": False},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
