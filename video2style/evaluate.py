@@ -63,7 +63,8 @@ def _key(*parts) -> str:
     return h.hexdigest()
 
 
-ADDED_OFF = ("lambda_stat_dir", "pair_between")  # learning fields added later: off (0), a style cache's key leaves them out
+ADDED_OFF = ("lambda_stat_dir", "pair_between")  # learning fields added later: off (0 / False, as learning ran before
+# them), a style cache's key leaves them out, so a cache from before serves
 
 
 class OnTheFly:
