@@ -75,9 +75,7 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
 
     if config.pair_generation:
         say("generating the style-neutral pair")
-        pair = _pair(bundle, example, neutral_text, config, gen)
-        if config.pair_between:
-            pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, device))
+        pair = _pair(bundle, dataset, example, neutral_text, config, gen)
     else:
         pair = example.clone()
 
@@ -175,9 +173,15 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
 
 
 @torch.no_grad()
-def _pair(bundle, example: torch.Tensor, neutral_text: str, config: LearnConfig, gen: torch.Generator) -> torch.Tensor:
+def _pair(bundle, dataset, example: torch.Tensor, neutral_text: str, config: LearnConfig,
+          gen: torch.Generator) -> torch.Tensor:
+    """The neutral pair ``(T, D)`` of ``example (T, D)``, drawn by the prior and, with ``config.pair_between``, held
+    where ``dataset``'s neutral clips of ``neutral_text`` hold the body (:func:`transfer.posture.bound_pair`)."""
     text = bundle.text_encoder.encode([neutral_text]).to(example.device)
-    return neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
+    pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
+    if config.pair_between:
+        pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, example.device))
+    return pair
 
 
 def _neutral_clips(dataset, text: str, device) -> list[torch.Tensor]:
@@ -199,11 +203,7 @@ def neutral_pair(bundle, example: torch.Tensor, config: LearnConfig, content_tex
     if config.pair_between and dataset is None:
         raise ValueError("neutral_pair: expected the content source (dataset) with config.pair_between")
     torch.manual_seed(config.seed)
-    example = example.to(device)
-    pair = _pair(bundle, example, neutral_text, config, torch.Generator().manual_seed(config.seed))
-    if config.pair_between:
-        pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, device))
-    return pair.cpu()
+    return _pair(bundle, dataset, example.to(device), neutral_text, config, torch.Generator().manual_seed(config.seed)).cpu()
 
 
 def partial_reason(meta: dict, min_iterations: int = MIN_ITERATIONS) -> str | None:

@@ -19,6 +19,11 @@ ARM_GATE_SMOOTHING = 5.0  # frames: Gaussian sigma of the gate over time, so an 
 ARM_JOINTS = ("Shoulder", "UpperArm", "LowerArm", "Hand")  # an arm's joints, "_L"/"_R" after each (gate_arms)
 
 
+def arm_channels(side: str) -> list[int]:
+    """The feature channels (positions and rotations) of one arm's :data:`ARM_JOINTS`, ``side`` "L" or "R"."""
+    return FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS])
+
+
 def arm_gate(content: torch.Tensor, example: torch.Tensor, radius: float) -> torch.Tensor:
     """How much of the style each arm of ``content`` takes, frame by frame: all while its hand is within
     ``radius`` metres of a place the style ``example``'s hand ever takes (:func:`motioncore.limbs.hand_reach`;
@@ -39,8 +44,7 @@ def gate_arms(out: torch.Tensor, content: torch.Tensor, weights: torch.Tensor) -
                          f"{tuple(out.shape)}, {tuple(content.shape)}, {tuple(weights.shape)}")
     out = out.clone()
     for side, w in zip("LR", weights.T.to(out)):
-        joints = [CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS]
-        ch = FEATURES.joint_channels(joints)
+        ch = arm_channels(side)
         out[:, ch] = content[:, ch] + w[:, None] * (out[:, ch] - content[:, ch])
     return out
 
@@ -84,7 +88,7 @@ def keep_arm_motion(out: torch.Tensor, content: torch.Tensor, share: float,
         return out
     out = out.clone()
     for side in "LR":
-        ch = FEATURES.joint_channels([CANONICAL.skeleton.index(f"{n}_{side}") for n in ARM_JOINTS])
+        ch = arm_channels(side)
         change = out[:, ch] - content[:, ch]
         mean = change.mean(0, keepdim=True)
         target = mean if held is None else share * mean + (1 - share) * held[ch]
@@ -123,7 +127,7 @@ def posture_between(posture_shift: torch.Tensor, content: torch.Tensor, example:
     ch = STAT_CHANNELS.to(content.device)
     m_c, m_e = content[:, ch].mean(0), example[:, ch].mean(0)
     low, high = torch.minimum(m_c, m_e) - POSTURE_TOLERANCE, torch.maximum(m_c, m_e) + POSTURE_TOLERANCE
-    return (torch.minimum(torch.maximum(m_c + amount * posture_shift, low), high) - m_c) / amount
+    return ((m_c + amount * posture_shift).clamp(low, high) - m_c) / amount
 
 
 PAIR_SPREAD = 2.0  # standard deviations of the neutral clips' time-means that count as where they hold a channel
@@ -149,7 +153,7 @@ def bound_pair(pair: torch.Tensor, example: torch.Tensor, neutral: list[torch.Te
     low = torch.minimum(m_e, centre - spread) - POSTURE_TOLERANCE
     high = torch.maximum(m_e, centre + spread) + POSTURE_TOLERANCE
     out = pair.clone()
-    out[:, ch] += torch.minimum(torch.maximum(m_p, low), high) - m_p
+    out[:, ch] += m_p.clamp(low, high) - m_p
     return out
 
 

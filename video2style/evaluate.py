@@ -107,8 +107,7 @@ class OnTheFly:
         if key not in self.shared and stored is not None and stored.is_file():
             learned = Style.load(stored)
             self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"])
-            if learned.posture_shift is not None:  # the pair's change, as learning drew it
-                self.shared.setdefault(self._posture_key(style_example), learned.posture_shift)
+            self._keep_posture(style_example, learned)
         if key not in self.shared:
             t0 = time.time()
             content_label = read_motion(self.m.motion_encoder, self.m.text_encoder, style_example).content
@@ -117,8 +116,7 @@ class OnTheFly:
             if stored is not None:
                 learned.save(stored)
             self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
-            if learned.posture_shift is not None:  # drawn while learning: _posture need not draw the pair again
-                self.shared.setdefault(self._posture_key(style_example), learned.posture_shift)
+            self._keep_posture(style_example, learned)
             self.progress(f"learned {style_label!r} from a {content_label} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
         model, seconds, iterations = self.shared[key]
@@ -147,6 +145,11 @@ class OnTheFly:
         return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
                                     self.strength, self.seed, posture_shift=self._posture(style_example),
                                     example=self.data.denormalize(style_example))
+
+    def _keep_posture(self, style_example: torch.Tensor, learned) -> None:
+        """A learned style's posture change (drawn while learning): :meth:`_posture` need not draw the pair again."""
+        if learned.posture_shift is not None:
+            self.shared.setdefault(self._posture_key(style_example), learned.posture_shift)
 
     def _posture_key(self, style_example: torch.Tensor) -> str:
         parts = (style_example, self.learned.seed, self.learned.pair_noise_step, self.learned.pair_ddim_steps)
