@@ -37,7 +37,8 @@ def main(argv: list[str] | None = None) -> None:
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     # seed 2: of the draws 0-2 of the 34,000-step prior, the one whose walk, turn and run slide least (seed 0's
-    # turn slid 13.9 % of frames; docs/RESULTS.md, "The prior's FK stage")
+    # turn slid 13.9 % of frames; docs/RESULTS.md, "The prior's FK stage"); kept for the 35,743-step prior, whose
+    # seed 2 walk and turn slide in no frame (seed 1's turn 1.3 %, seed 0's 20.3 %; "The 35,743-step priors shipped")
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE)
     ap.add_argument("--from-rotations", action="store_true", help="decode the samples' rotation channels")
