@@ -34,12 +34,20 @@ def make_inputs(work: Path, seconds: float) -> tuple[Path, Path]:
     return video, bvh
 
 
+def _phase_seconds(phases: list[tuple[float, str]], end: float) -> list[tuple[str, float]]:
+    """Seconds spent in each of learn's numbered steps ("[1/4] ..."), from its timestamped progress lines."""
+    starts = [(t, s.split("]")[0] + "]") for t, s in phases if s.startswith("[")]
+    ends = [t for t, _ in starts[1:]] + [end]
+    return [(label, end - start) for (start, label), end in zip(starts, ends)]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", type=Path, help="keep inputs and outputs here (default: a temporary folder)")
     ap.add_argument("--repeats", type=int, default=3, help="apply timings: best of this many")
+    ap.add_argument("--learn-repeats", type=int, default=1, help="learn this many times (each timed, phases apart)")
     ap.add_argument("--device", default="cpu", help="where the models run: cpu, cuda or auto (default: %(default)s)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
@@ -56,12 +64,17 @@ def main() -> None:
         load_models(args.device)
         print(f"device {args.device}; loading models: {time.perf_counter() - t0:.1f} s (once per process, not counted below)")
 
-        t0 = time.perf_counter()
-        summary = learn_file(video, work / "elderly.v2s", "elderly", progress=lambda s: None, device=args.device)
-        learn_s = time.perf_counter() - t0
+        for run in range(args.learn_repeats):
+            phases: list[tuple[float, str]] = []
+            t0 = time.perf_counter()
+            summary = learn_file(video, work / "elderly.v2s", "elderly", device=args.device,
+                                 progress=lambda s, lines=phases: lines.append((time.perf_counter(), s)))
+            learn_s = time.perf_counter() - t0
+            print(f"learn ({args.seconds:g} s 720p video, pose included), run {run + 1}: {learn_s:.1f} s "
+                  f"({summary['iterations']} fine-tuning iterations; content read as {summary['content']!r})  "
+                  "target <= 60 s")
+            print("  " + "; ".join(f"{label} {seconds:.1f} s" for label, seconds in _phase_seconds(phases, t0 + learn_s)))
         size = (work / "elderly.v2s").stat().st_size
-        print(f"learn ({args.seconds:g} s 720p video, pose included): {learn_s:.1f} s "
-              f"({summary['iterations']} fine-tuning iterations; content read as {summary['content']!r})  target <= 60 s")
         print(f"style file: {size / 1024:.0f} KiB  target <= 1024 KiB")
 
         style = Style.load(work / "elderly.v2s")

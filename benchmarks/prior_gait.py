@@ -1,6 +1,7 @@
 """How the shipped prior's text-to-motion walks step, against real walks: foot skating and ankle lift.
 
-    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--dataset] [--prior W] [REAL.bvh ...]
+    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--frames 80] [--data-length] [--dataset]
+        [--prior W] [REAL.bvh ...]
 
 For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: by
 default 50 DDIM steps, guidance 2.5) is measured twice: decoded from its rotation channels (``representation.decode``,
@@ -8,7 +9,9 @@ what the pipeline uses) and from its position channels (``representation.decode_
 are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
 ("normal" style, unmirrored) training clips of each of those actions in the dataset cache. Columns: the foot-skating ratio of ``evaluation.metrics`` (frames where a foot
 is within 3 cm of its lowest point and moves faster than 0.5 m/s) and the ankle lift (the smaller of the
-two ankles' highest minus lowest point over the clip). Real walking lifts the ankle 15-25 cm.
+two ankles' highest minus lowest point over the clip). Real walking lifts the ankle 15-25 cm. ``--frames`` sets
+the samples' length; with ``--data-length`` each caption's is that of the data's clips of its action (at most
+``--frames``): a run, 46-67 frames in the data, is then not drawn longer than any run the prior learned from.
 """
 from __future__ import annotations
 
@@ -32,6 +35,16 @@ def gait(motion=None, gpos=None, fps: float = 20.0) -> tuple[float, float]:
     return foot_skating_ratio(gpos, fps), lift
 
 
+def _data_length(action: str) -> int:
+    """The median length (frames) of the dataset cache's neutral, unmirrored training clips of ``action``."""
+    from transfer.dataset import MotionDataset
+    from video2style.paths import default_dataset_dir
+
+    data = MotionDataset(default_dataset_dir(), "train")
+    return int(statistics.median(r.length for r in data.records
+                                 if r.content == action and r.style == "normal" and not r.mirrored))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("real", nargs="*", type=Path, help="BVH files of real walks to compare with")
@@ -39,6 +52,9 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=50, help="DDIM steps (default: 50, as the pipeline)")
     ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance (default: 2.5)")
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
+    ap.add_argument("--frames", type=int, default=80, help="sample length (default: 80, the prior's training window)")
+    ap.add_argument("--data-length", action="store_true", help="sample each caption as long as its neutral training "
+                    "clips are (median; at most --frames): runs are 46-67 frames in the data")
     ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one "
                     "(e.g. a training run's denoiser.safetensors)")
     args = ap.parse_args()
@@ -54,13 +70,20 @@ def main() -> None:
     m = MethodBundle.from_pretrained((args.prior, weights_path(ENCODER_FILE))) if args.prior else load_models()
     print(f"prior: {m.prior_path}")
     text = m.text_encoder.encode(list(CAPTIONS))
+    lengths = dict.fromkeys(CAPTIONS, args.frames)
+    if args.data_length:
+        lengths = {c: min(args.frames, _data_length(a)) for c, a in zip(CAPTIONS, ACTIONS)}
+        print("sample lengths: " + ", ".join(f"{c!r} {n} frames" for c, n in lengths.items()))
     rows: dict[str, list[tuple[float, float]]] = {}
     for seed in range(args.seeds):
-        x = generate(m.prior, m.scheduler, text, 80, args.steps, args.guidance, torch.Generator().manual_seed(seed))
-        for caption, feats in zip(CAPTIONS, m.denormalize(x)):
-            rows.setdefault(f"prior: {caption}", []).append(gait(decode(feats)))
-            rows.setdefault(f"  position channels: {caption}", []).append(
-                gait(gpos=decode_positions(feats.double()).float()))
+        for length in sorted(set(lengths.values()), reverse=True):  # one batch when all are as long
+            group = [i for i, c in enumerate(CAPTIONS) if lengths[c] == length]
+            x = generate(m.prior, m.scheduler, text[group], length, args.steps, args.guidance,
+                         torch.Generator().manual_seed(seed))
+            for i, feats in zip(group, m.denormalize(x)):
+                rows.setdefault(f"prior: {CAPTIONS[i]}", []).append(gait(decode(feats)))
+                rows.setdefault(f"  position channels: {CAPTIONS[i]}", []).append(
+                    gait(gpos=decode_positions(feats.double()).float()))
     if args.dataset:
         from transfer.dataset import MotionDataset
         from video2style.paths import default_dataset_dir

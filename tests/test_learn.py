@@ -169,6 +169,30 @@ def test_neutral_pair_is_the_one_learning_draws(toys):
     assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk", dataset=data), info["pair"])
 
 
+def test_a_long_example_gets_its_pair_drawn_in_windows_as_long_as_the_priors(toys):
+    """The prior, trained on fixed windows, draws longer motion shuffling: a longer example's pair is drawn in
+    ``config.window``-frame windows (crossfaded), its path kept; ``pair_windowed=False`` draws it whole."""
+    from transfer.edit import TRAJECTORY
+    from transfer.learn import neutral_pair
+
+    bundle, cache = toys
+    data = MotionDataset(cache, "train")
+    example = torch.cat([data.clip(0), data.clip(1), data.clip(0)])[:70]
+    lengths = []
+    hook = bundle.prior.register_forward_hook(lambda module, args, out: lengths.append(args[0].shape[1]))
+    try:
+        for windowed in (True, False):
+            lengths.clear()
+            config = _config(seed=1, pair_between=False, pair_windowed=windowed)
+            pair = neutral_pair(bundle, example, config, "walk")
+            assert pair.shape == example.shape and torch.isfinite(pair).all()
+            assert set(lengths) == ({config.window} if windowed else {70})
+            for s in TRAJECTORY:  # the example's path, through the crossfade too
+                assert torch.allclose(pair[:, s], example[:, s], atol=1e-5)
+    finally:
+        hook.remove()
+
+
 def test_a_bounded_pair_is_the_pair_learning_uses_and_neutral_pair_draws(toys):
     from transfer.learn import neutral_pair
     from transfer.posture import POSTURE_TOLERANCE

@@ -1,7 +1,8 @@
 """Learning a style on the fly, after Hu et al. 2024 §3.2-3.5.
 
 1. The neutral pair: the style example noised to step G and denoised by the prior under the neutral caption,
-   its root trajectory inpainted at every step (eq. 3-5; :func:`transfer.edit.neutralize`).
+   its root trajectory inpainted at every step (eq. 3-5; :func:`transfer.edit.neutralize`), in windows as long as
+   the prior's training windows when the example is longer.
    Each body channel's time-mean is then held where the example or the content source's neutral clips of its
    action hold it (:func:`transfer.posture.bound_pair`): a tilt the prior drew is not learned as the style's.
 2. :func:`learn_style`: a copy of the prior with LoRA adapters learns to turn the neutral pair, noised K steps,
@@ -38,6 +39,7 @@ from transfer.style_losses import (
     statistics_loss,
     style_shift,
 )
+from transfer.windows import crossfade, window_starts
 
 
 def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
@@ -175,10 +177,18 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
 @torch.no_grad()
 def _pair(bundle, dataset, example: torch.Tensor, neutral_text: str, config: LearnConfig,
           gen: torch.Generator) -> torch.Tensor:
-    """The neutral pair ``(T, D)`` of ``example (T, D)``, drawn by the prior and, with ``config.pair_between``, held
-    where ``dataset``'s neutral clips of ``neutral_text`` hold the body (:func:`transfer.posture.bound_pair`)."""
+    """The neutral pair ``(T, D)`` of ``example (T, D)``, drawn by the prior (with ``config.pair_windowed``, in
+    ``config.window``-frame windows crossfaded over a quarter of one when the example is longer) and, with
+    ``config.pair_between``, held where ``dataset``'s neutral clips of ``neutral_text`` hold the body (:func:`transfer.posture.bound_pair`)."""
     text = bundle.text_encoder.encode([neutral_text]).to(example.device)
-    pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
+    length = example.shape[0]
+    if config.pair_windowed and length > config.window:
+        starts = window_starts(length, config.window, config.window // 4)
+        windows = torch.stack([example[s:s + config.window] for s in starts])
+        drawn = neutralize(bundle.prior, bundle.scheduler, windows, text.expand(len(starts), -1), config, gen)
+        pair = crossfade(drawn, starts, length)
+    else:
+        pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
     if config.pair_between:
         pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, example.device))
     return pair

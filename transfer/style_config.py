@@ -47,6 +47,9 @@ class LearnConfig:
     pair_between: bool = True  # the pair's body channels held (time-means) where the example or the content source's
     # neutral clips of its action hold them (transfer.posture.bound_pair): a tilt the prior drew is not learned (chosen
     # on the val splits of both protocols, docs/RESULTS.md "A neutral pair held where neutral clips hold the body")
+    pair_windowed: bool = True  # an example longer than ``window`` gets its pair drawn in ``window``-frame windows
+    # crossfaded over a quarter of one, as apply draws: the prior, trained on 80-frame windows, draws longer motion
+    # shuffling (docs/RESULTS.md "The neutral pair in windows"); False: drawn whole, as before 2026-12-06
 
 
 @dataclass
@@ -107,11 +110,11 @@ CONFIG_RANGES = {
     "limb_guard": (float, 0.0, 1.0), "lambda_stat_dir": (float, 0.0, 100.0), "posture": (float, 0.0, 1.0),
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
     "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
-    "pair_between": (bool, None, None), "guard_swing": (bool, None, None),
+    "pair_between": (bool, None, None), "guard_swing": (bool, None, None), "pair_windowed": (bool, None, None),
 }
 # learning fields a style file written before they existed was learned without (their default since differs):
 # read so from a file that lacks them (:meth:`transfer.style_file.Style.configs`)
-LEARNED_WITHOUT = {"pair_between": False}
+LEARNED_WITHOUT = {"pair_between": False, "pair_windowed": False}
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones
 OLD_NAMES = {"pair_step": "pair_noise_step", "pair_steps": "pair_ddim_steps",

@@ -81,6 +81,9 @@ VARIANTS = {
     # ... and the stray-limb guard swinging an arm at the shoulder instead of bending its elbow (motioncore.limbs.swing_limb;
     # "ours-swing" before it became the default)
     "ours-guard-ik": {"guard_swing": False},
+    # 2026-12-06: the neutral pair of an example longer than the prior's 80-frame window drawn whole (before), not in
+    # windows (transfer.learn._pair; docs/RESULTS.md "The neutral pair in windows")
+    "ours-whole-pair": {"pair_windowed": False},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
