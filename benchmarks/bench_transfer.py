@@ -1,11 +1,13 @@
 """Speed of ``learn`` (pose included) and ``apply`` on 10-second clips, and the style file size.
 
-    python benchmarks/bench_transfer.py [--seconds 10] [--threads 2] [--work DIR]
+    python benchmarks/bench_transfer.py [--seconds 10] [--threads 2] [--work DIR] [--learn-repeats 3]
 
 Inputs are project-made: a prior sample of "a person walks, elderly style" rendered as a 720p
 video of the project's humanoid (the style example), and a prior sample of "a person walks" as
-a 30 fps BVH (the content). Targets (issue 5): learn <= 90 s, apply <= 1 s per 10 s clip
-(cleanup included), style file <= 1 MB. Previews are off for the apply timing; the time with a
+a 30 fps BVH (the content), each drawn whole: longer than the prior's 80-frame window, they shuffle, and the
+style example is read as an arm action (these are speed inputs, not quality ones). Targets (issue 5): learn <= 90 s,
+apply <= 1 s per 10 s clip (cleanup included), style file <= 1 MB. ``--learn-repeats`` times learn several times,
+each with its steps apart. Previews are off for the apply timing; the time with a
 preview and with neutralisation (styled content) is printed too.
 """
 from __future__ import annotations
