@@ -120,6 +120,7 @@ def main() -> None:
     ap.add_argument("--previews", type=Path)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance of the samples (default: 2.5)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one")
     ap.add_argument("--encoder", type=Path, help="a motion encoder's weights instead of the shipped one")
@@ -139,7 +140,7 @@ def main() -> None:
     ret = retrieval(m.motion_encoder, m.text_encoder, data)
     for k, v in ret.items():
         print(f"{k:22s} {v if k == 'clips' else f'{100 * v:.1f} %'}")
-    q = sample_quality(m, data, args.previews, steps=args.steps, classifier=load_classifier(default_weights("content")))
+    q = sample_quality(m, data, args.previews, steps=args.steps, guidance=args.guidance, classifier=load_classifier(default_weights("content")))
     for k, v in q.items():
         print(f"{k:22s} {v:.4f}" if isinstance(v, float) else f"{k:22s} {v}")
     if args.json:
