@@ -16,6 +16,7 @@ the samples' length; with ``--data-length`` each caption's is that of the data's
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 from pathlib import Path
 
@@ -35,13 +36,18 @@ def gait(motion=None, gpos=None, fps: float = 20.0) -> tuple[float, float]:
     return foot_skating_ratio(gpos, fps), lift
 
 
-def _data_length(action: str) -> int:
-    """The median length (frames) of the dataset cache's neutral, unmirrored training clips of ``action``."""
+@functools.cache
+def _training_data():
+    """The dataset cache's train split (read once)."""
     from transfer.dataset import MotionDataset
     from video2style.paths import default_dataset_dir
 
-    data = MotionDataset(default_dataset_dir(), "train")
-    return int(statistics.median(r.length for r in data.records
+    return MotionDataset(default_dataset_dir(), "train")
+
+
+def _data_length(action: str) -> int:
+    """The median length (frames) of the dataset cache's neutral, unmirrored training clips of ``action``."""
+    return int(statistics.median(r.length for r in _training_data().records
                                  if r.content == action and r.style == "normal" and not r.mirrored))
 
 
@@ -85,10 +91,7 @@ def main() -> None:
                 rows.setdefault(f"  position channels: {CAPTIONS[i]}", []).append(
                     gait(gpos=decode_positions(feats.double()).float()))
     if args.dataset:
-        from transfer.dataset import MotionDataset
-        from video2style.paths import default_dataset_dir
-
-        data = MotionDataset(default_dataset_dir(), "train")
+        data = _training_data()
         for action in ACTIONS:
             picked = [i for i, r in enumerate(data.records) if r.content == action and r.style == "normal"
                       and not r.mirrored][:12]
