@@ -12,7 +12,7 @@ from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
 from transfer.style_config import ApplyConfig, LearnConfig, strength_to_step
 from transfer.style_file import Style, style_model
-from transfer.windows import crossfade, window_starts
+from transfer.windows import crossfade, crossfade_overlap, window_starts
 
 
 def tiny_denoiser(seed=0):
@@ -100,6 +100,7 @@ def test_windows_cover_and_crossfade_is_seamless():
     ramp = torch.arange(333.0)[:, None]
     starts = window_starts(333, 80, 20)
     assert torch.allclose(crossfade([ramp[s:s + 80] for s in starts], starts, 333), ramp)
+    assert crossfade_overlap(80) == 20  # the prior's windows share a quarter (learning's pair and apply alike)
 
 
 def test_two_bone_ik_reaches_reachable_targets():

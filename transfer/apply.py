@@ -27,7 +27,7 @@ from transfer.posture import (
     posture_channels,
 )
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
-from transfer.windows import crossfade, window_starts
+from transfer.windows import crossfade, crossfade_overlap, window_starts
 
 # Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
 # Bandai val original has a top similarity >= 0.82 and P(content) >= 0.5 at the 5th percentile; foreign clips
@@ -171,10 +171,12 @@ def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tenso
 
 @torch.no_grad()
 def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
-                        seed: int = 0, window: int = 80, overlap: int = 20) -> torch.Tensor:
+                        seed: int = 0, window: int = 80, overlap: int | None = None) -> torch.Tensor:
     """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``;
     noised to ``config.neutralize_step`` and redrawn by the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`)
-    as the style's pair was (``learned``). Runs on the prior's device; the result is on ``x``'s."""
+    as the style's pair was (``learned``), in ``window``-frame windows crossfaded over ``overlap`` (default:
+    :func:`transfer.windows.crossfade_overlap`). Runs on the prior's device; the result is on ``x``'s."""
+    overlap = crossfade_overlap(window) if overlap is None else overlap
     prior = bundle.prior
     device = model_device(prior)
     starts, windows = _window_views(x.to(device), window, overlap)
@@ -187,13 +189,13 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
 @torch.no_grad()
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
-                         window: int = 80, overlap: int = 20, posture_shift: torch.Tensor | None = None,
+                         window: int = 80, overlap: int | None = None, posture_shift: torch.Tensor | None = None,
                          example: torch.Tensor | None = None, report: dict | None = None) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
     ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
-    crossfaded over 20. ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
+    crossfaded over ``overlap`` (default: :func:`transfer.windows.crossfade_overlap`, 20). ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
     above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None), with
     ``config.posture_between`` no further than between the content's and the example's means (:func:`posture_between`). ``example``
     (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
@@ -207,6 +209,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) to ``report["still_share"]``. Runs on the models' device (``model``
     and the prior on one); the result is on ``x``'s."""
     step, config = strength_settings(strength, learned, config)
+    overlap = crossfade_overlap(window) if overlap is None else overlap
     device = model_device(model)
     out_device, x = x.device, x.to(device)
     if neutral_text is not None and config.neutralize_step > 0:

@@ -39,7 +39,7 @@ from transfer.style_losses import (
     statistics_loss,
     style_shift,
 )
-from transfer.windows import crossfade, window_starts
+from transfer.windows import crossfade, crossfade_overlap, window_starts
 
 
 def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
@@ -183,7 +183,7 @@ def _pair(bundle, dataset, example: torch.Tensor, neutral_text: str, config: Lea
     text = bundle.text_encoder.encode([neutral_text]).to(example.device)
     length = example.shape[0]
     if config.pair_windowed and length > config.window:
-        starts = window_starts(length, config.window, config.window // 4)
+        starts = window_starts(length, config.window, crossfade_overlap(config.window))
         windows = torch.stack([example[s:s + config.window] for s in starts])
         drawn = neutralize(bundle.prior, bundle.scheduler, windows, text.expand(len(starts), -1), config, gen)
         pair = crossfade(drawn, starts, length)
