@@ -170,20 +170,31 @@ def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tenso
 
 
 @torch.no_grad()
+def neutralize_windows(prior, scheduler, x: torch.Tensor, text: torch.Tensor, learned: LearnConfig,
+                       generator: torch.Generator, step: int | None = None, window: int = 80,
+                       overlap: int | None = None) -> torch.Tensor:
+    """:func:`transfer.edit.neutralize` of normalised features ``x (T, D)`` under ``text (1, E)`` (from ``step``,
+    default G), in ``window``-frame windows crossfaded over ``overlap`` (default:
+    :func:`transfer.windows.crossfade_overlap`): the prior, trained on 80-frame windows, draws longer motion
+    shuffling. A clip no longer than a window is drawn whole. ``x`` and ``text`` on the prior's device."""
+    overlap = crossfade_overlap(window) if overlap is None else overlap
+    starts, windows = _window_views(x, window, overlap)
+    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, learned, generator, step),
+                        starts, windows, text.expand(len(starts), -1))
+    return crossfade(parts, starts, x.shape[0])
+
+
+@torch.no_grad()
 def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                         seed: int = 0, window: int = 80, overlap: int | None = None) -> torch.Tensor:
     """The neutral version ``(T, D)`` of styled normalised content ``(T, D)``, same path; ``neutral_text (1, E)``;
     noised to ``config.neutralize_step`` and redrawn by the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`)
-    as the style's pair was (``learned``), in ``window``-frame windows crossfaded over ``overlap`` (default:
-    :func:`transfer.windows.crossfade_overlap`). Runs on the prior's device; the result is on ``x``'s."""
-    overlap = crossfade_overlap(window) if overlap is None else overlap
-    prior = bundle.prior
-    device = model_device(prior)
-    starts, windows = _window_views(x.to(device), window, overlap)
+    as the style's pair was (``learned``), in windows (:func:`neutralize_windows`). Runs on the prior's device; the
+    result is on ``x``'s."""
+    device = model_device(bundle.prior)
     gen = torch.Generator().manual_seed(seed + 1)
-    parts = _in_batches(lambda p, t: neutralize(prior, bundle.scheduler, p, t, learned, gen, config.neutralize_step),
-                        starts, windows, neutral_text.to(device).expand(len(starts), -1))
-    return crossfade(parts, starts, x.shape[0]).to(x.device)
+    return neutralize_windows(bundle.prior, bundle.scheduler, x.to(device), neutral_text.to(device), learned, gen,
+                              config.neutralize_step, window, overlap).to(x.device)
 
 
 @torch.no_grad()

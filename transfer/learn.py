@@ -22,6 +22,7 @@ from torch.profiler import record_function
 from tqdm import tqdm
 
 from motioncore.representation import FEATURES
+from transfer.apply import neutralize_windows
 from transfer.captions import caption
 from transfer.device import model_device
 from transfer.edit import TRAJECTORY, neutralize
@@ -39,7 +40,6 @@ from transfer.style_losses import (
     statistics_loss,
     style_shift,
 )
-from transfer.windows import crossfade, crossfade_overlap, window_starts
 
 
 def _random_window_starts(n: int, window: int, count: int, generator: torch.Generator) -> list[int]:
@@ -178,15 +178,11 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
 def _pair(bundle, dataset, example: torch.Tensor, neutral_text: str, config: LearnConfig,
           gen: torch.Generator) -> torch.Tensor:
     """The neutral pair ``(T, D)`` of ``example (T, D)``, drawn by the prior (with ``config.pair_windowed``, in
-    ``config.window``-frame windows crossfaded over a quarter of one when the example is longer) and, with
+    ``config.window``-frame windows, :func:`transfer.apply.neutralize_windows`) and, with
     ``config.pair_between``, held where ``dataset``'s neutral clips of ``neutral_text`` hold the body (:func:`transfer.posture.bound_pair`)."""
     text = bundle.text_encoder.encode([neutral_text]).to(example.device)
-    length = example.shape[0]
-    if config.pair_windowed and length > config.window:
-        starts = window_starts(length, config.window, crossfade_overlap(config.window))
-        windows = torch.stack([example[s:s + config.window] for s in starts])
-        drawn = neutralize(bundle.prior, bundle.scheduler, windows, text.expand(len(starts), -1), config, gen)
-        pair = crossfade(drawn, starts, length)
+    if config.pair_windowed:
+        pair = neutralize_windows(bundle.prior, bundle.scheduler, example, text, config, gen, window=config.window)
     else:
         pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
     if config.pair_between:
