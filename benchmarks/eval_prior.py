@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import torch
@@ -24,7 +25,7 @@ from motioncore.skating import foot_skating_ratio
 from motioncore.skeleton import CANONICAL
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
 from transfer.dataset import MotionDataset
-from transfer.sampling import generate
+from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
 MAX_FRAMES = 160
 
@@ -73,18 +74,18 @@ def retrieval(encoder, text_encoder, data: MotionDataset, seed: int = 0, gallery
     return out
 
 
-def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: int = 80, steps: int = 50,
-                   guidance: float = 2.5, seed: int = 0, classifier=None) -> dict:
-    """Samples ``(length, D)`` of the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`) for every content x
-    style caption, against ``data``'s clips; ``classifier`` (the evaluation's content classifier) adds an FD on its
-    features."""
-    prior, encoder, text_encoder, denormalize = bundle.prior, bundle.motion_encoder, bundle.text_encoder, bundle.denormalize
+def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: int = 80,
+                   settings: TextToMotion = TEXT_TO_MOTION, seed: int = 0, classifier=None) -> dict:
+    """Samples ``(length, D)`` of the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`, drawn as ``settings``
+    say) for every content x style caption, against ``data``'s clips; ``classifier`` (the evaluation's content
+    classifier) adds an FD on its features."""
+    encoder, text_encoder, denormalize = bundle.motion_encoder, bundle.text_encoder, bundle.denormalize
     gen = torch.Generator().manual_seed(seed)
     pairs = [(c, s) for c in BANDAI2_CONTENTS for s in STYLES]
     t0 = time.time()
     samples = []
     for c, s in pairs:
-        x = generate(prior, bundle.scheduler, text_encoder.encode([caption(c, s)]), length, steps, guidance, gen)[0]
+        x = bundle.text_to_motion(text_encoder.encode([caption(c, s)]), length, gen, settings)[0]
         samples.append(x)
     per_sample = (time.time() - t0) / len(pairs)
     real_idx = [i for i, r in enumerate(data.records) if r.dataset == "bandai2" and not r.mirrored]
@@ -92,7 +93,7 @@ def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: in
     fd = frechet_distance(_embed(encoder, samples).numpy(), _embed(encoder, real).numpy())
     pos_samples = [decode_positions(denormalize(x)) for x in samples]
     pos_real = [decode_positions(denormalize(x)) for x in real]
-    out = {"samples": len(samples), "seconds_per_sample": per_sample, "steps": steps, "guidance": guidance,
+    out = {"samples": len(samples), "seconds_per_sample": per_sample, **asdict(settings),
            "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
            "skating_real": foot_skating_ratio(pos_real)}
     if classifier is not None:
@@ -119,8 +120,14 @@ def main() -> None:
     ap.add_argument("--split", default="test")
     ap.add_argument("--previews", type=Path)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--steps", type=int, default=50)
-    ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance of the samples (default: 2.5)")
+    shipped = TEXT_TO_MOTION
+    ap.add_argument("--steps", type=int, default=shipped.steps, help=f"DDIM steps (default: {shipped.steps})")
+    ap.add_argument("--guidance", type=float, default=shipped.guidance,
+                    help=f"classifier-free guidance of the samples (default: {shipped.guidance})")
+    ap.add_argument("--contact-rate", type=float, default=shipped.contact_rate,
+                    help=f"the planted-feet guide's step (default: {shipped.contact_rate}; 0: off)")
+    ap.add_argument("--contact-iterations", type=int, default=shipped.contact_iterations,
+                    help=f"the planted-feet guide's steps per x0 prediction (default: {shipped.contact_iterations})")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one")
     ap.add_argument("--encoder", type=Path, help="a motion encoder's weights instead of the shipped one")
@@ -140,7 +147,8 @@ def main() -> None:
     ret = retrieval(m.motion_encoder, m.text_encoder, data)
     for k, v in ret.items():
         print(f"{k:22s} {v if k == 'clips' else f'{100 * v:.1f} %'}")
-    q = sample_quality(m, data, args.previews, steps=args.steps, guidance=args.guidance, classifier=load_classifier(default_weights("content")))
+    settings = TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+    q = sample_quality(m, data, args.previews, settings=settings, classifier=load_classifier(default_weights("content")))
     for k, v in q.items():
         print(f"{k:22s} {v:.4f}" if isinstance(v, float) else f"{k:22s} {v}")
     if args.json:

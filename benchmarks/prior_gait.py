@@ -1,10 +1,11 @@
 """How the shipped prior's text-to-motion walks step, against real walks: foot skating and ankle lift.
 
-    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.5] [--frames 80] [--data-length] [--dataset]
-        [--prior W] [REAL.bvh ...]
+    python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.0] [--contact-rate 0.02]
+        [--contact-iterations 2] [--frames 80] [--data-length] [--dataset] [--prior W] [REAL.bvh ...]
 
 For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: by
-default 50 DDIM steps, guidance 2.5) is measured twice: decoded from its rotation channels (``representation.decode``,
+default the project's ``transfer.sampling.TextToMotion`` settings; ``--contact-rate 0``, the draw without the
+planted-feet guide) is measured twice: decoded from its rotation channels (``representation.decode``,
 what the pipeline uses) and from its position channels (``representation.decode_positions``); the BVH files given (e.g. ../shared/data/xia_test/neutral_*.bvh)
 are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
 ("normal" style, unmirrored) training clips of each of those actions in the dataset cache. Columns: the foot-skating ratio of ``evaluation.metrics`` (frames where a foot
@@ -55,8 +56,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("real", nargs="*", type=Path, help="BVH files of real walks to compare with")
     ap.add_argument("--seeds", type=int, default=8)
-    ap.add_argument("--steps", type=int, default=50, help="DDIM steps (default: 50, as the pipeline)")
-    ap.add_argument("--guidance", type=float, default=2.5, help="classifier-free guidance (default: 2.5)")
+    from transfer.sampling import TEXT_TO_MOTION, TextToMotion
+
+    shipped = TEXT_TO_MOTION
+    ap.add_argument("--steps", type=int, default=shipped.steps, help=f"DDIM steps (default: {shipped.steps})")
+    ap.add_argument("--guidance", type=float, default=shipped.guidance,
+                    help=f"classifier-free guidance (default: {shipped.guidance})")
+    ap.add_argument("--contact-rate", type=float, default=shipped.contact_rate,
+                    help=f"the planted-feet guide's step (default: {shipped.contact_rate}; 0: off)")
+    ap.add_argument("--contact-iterations", type=int, default=shipped.contact_iterations,
+                    help=f"the planted-feet guide's steps per x0 prediction (default: {shipped.contact_iterations})")
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
     ap.add_argument("--frames", type=int, default=80, help="sample length (default: 80, the prior's training window)")
     ap.add_argument("--data-length", action="store_true", help="sample each caption as long as its neutral training "
@@ -69,12 +78,12 @@ def main() -> None:
     from motioncore.representation import decode, decode_positions
     from motioncore.retarget import place_on_floor
     from transfer.bundle import ENCODER_FILE, MethodBundle, load_models
-    from transfer.sampling import generate
     from transfer.shipped import weights_path
     from video2style.pipeline import read_clip
 
     m = MethodBundle.from_pretrained((args.prior, weights_path(ENCODER_FILE))) if args.prior else load_models()
-    print(f"prior: {m.prior_path}")
+    settings = TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+    print(f"prior: {m.prior_path}; {settings}")
     text = m.text_encoder.encode(list(CAPTIONS))
     lengths = dict.fromkeys(CAPTIONS, args.frames)
     if args.data_length:
@@ -84,8 +93,7 @@ def main() -> None:
     for seed in range(args.seeds):
         for length in sorted(set(lengths.values()), reverse=True):  # one batch when all are as long
             group = [i for i, c in enumerate(CAPTIONS) if lengths[c] == length]
-            x = generate(m.prior, m.scheduler, text[group], length, args.steps, args.guidance,
-                         torch.Generator().manual_seed(seed))
+            x = m.text_to_motion(text[group], length, torch.Generator().manual_seed(seed), settings)
             for i, feats in zip(group, m.denormalize(x)):
                 rows.setdefault(f"prior: {CAPTIONS[i]}", []).append(gait(decode(feats)))
                 rows.setdefault(f"  position channels: {CAPTIONS[i]}", []).append(

@@ -4,9 +4,12 @@
     python samples/make_samples.py --seed 3        # other draws (default 2)
     python samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
 
-Content clips are text-to-motion samples of the project's diffusion prior (neutral style), their rotations
-fitted to the samples' joint-position channels (the prior places feet better there; ``--from-rotations``
-decodes the rotation channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. The style video is a prior
+Content clips are text-to-motion samples of the project's diffusion prior (neutral style; the project's
+``transfer.sampling.TextToMotion`` settings, whose guide plants the feet of the rotation channels), decoded from
+their rotation channels as the pipeline decodes (``--from-positions``: rotations fitted to the samples'
+joint-position channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. Each is
+drawn as long as the prior's training clips of its action: 80 frames (4 s), the run 57 (the median of the data's
+neutral runs, 46-67 frames; drawn longer, a run lifts its feet less, docs/RESULTS.md). The style video is a prior
 sample of an elderly-style walk rendered by the project's humanoid renderer
 (:mod:`lifting.render_humanoid`), which the BlazePose tracker reads like a filmed person.
 """
@@ -23,25 +26,26 @@ from motioncore.skeleton import CANONICAL
 from video2style.pipeline import prior_samples
 
 HERE = Path(__file__).resolve().parent
-CONTENT = {  # file stem -> caption
-    "walk_prior": "a person walks",
-    "run_prior": "a person runs",
-    "walk_turn_left_prior": "a person walks and turns left",
-    "wave_right_hand_prior": "a person waves the right hand",
+CONTENT = {  # file stem -> (caption, frames at the prior's 20 fps)
+    "walk_prior": ("a person walks", 80),
+    "run_prior": ("a person runs", 57),
+    "walk_turn_left_prior": ("a person walks and turns left", 80),
+    "wave_right_hand_prior": ("a person waves the right hand", 80),
 }
-STYLE_VIDEO = ("elderly", "a person walks, elderly style")
+STYLE_VIDEO = ("elderly", "a person walks, elderly style", 80)
 
 
 def main(argv: list[str] | None = None) -> None:
     from lifting.render_humanoid import frame_camera, write_humanoid_video
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    # seed 2: of the draws 0-2 of the 34,000-step prior, the one whose walk, turn and run slide least (seed 0's
-    # turn slid 13.9 % of frames; docs/RESULTS.md, "The prior's FK stage"); kept for the 35,743-step prior, whose
-    # seed 2 walk and turn slide in no frame (seed 1's turn 1.3 %, seed 0's 20.3 %; "The 35,743-step priors shipped")
+    # seed 2: of the draws 0-2, the one whose walk, turn and run slide least and lift most, for the 34,000-step prior,
+    # the 35,743-step one and its planted-feet guide (docs/RESULTS.md, "Planted feet at sampling": seed 0's turn slides
+    # in 8.9 % of frames, seed 1's turn lifts 12.3 cm; seed 2 slides in no frame)
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE)
-    ap.add_argument("--from-rotations", action="store_true", help="decode the samples' rotation channels")
+    ap.add_argument("--from-positions", action="store_true",
+                    help="fit the rotations to the samples' position channels instead of decoding their rotation channels")
     ap.add_argument("--content-bank", action="store_true",
                     help="also remake the content bank that learning uses without a dataset cache "
                          "(transfer/weights/content_bank.safetensors and its card) from the shipped prior")
@@ -49,37 +53,43 @@ def main(argv: list[str] | None = None) -> None:
     torch.manual_seed(args.seed)
     if args.content_bank:
         write_content_bank()
-    names = [*CONTENT, STYLE_VIDEO[0]]
-    motions = prior_samples([*CONTENT.values(), STYLE_VIDEO[1]], seed=args.seed, from_positions=not args.from_rotations)
+    wanted = {**CONTENT, STYLE_VIDEO[0]: STYLE_VIDEO[1:]}
+    motions = {}
+    for frames in sorted({n for _, n in wanted.values()}, reverse=True):  # one batch per length
+        names = [name for name, (_, n) in wanted.items() if n == frames]
+        drawn = prior_samples([wanted[name][0] for name in names], frames, args.seed, from_positions=args.from_positions)
+        motions.update(zip(names, drawn))
     layout = BvhLayout.default(CANONICAL.skeleton, "ZXY", scale=0.01)  # centimetres, like most tools
-    for name, motion in zip(names[:-1], motions[:-1]):
-        write_bvh(args.out / f"{name}.bvh", resample(motion, 30.0), layout)
-    style = resample(motions[-1], 30.0)
+    for name in CONTENT:
+        write_bvh(args.out / f"{name}.bvh", resample(motions[name], 30.0), layout)
+    style = resample(motions[STYLE_VIDEO[0]], 30.0)
     cam = frame_camera(style.global_positions().numpy(), azimuth_deg=35.0, width=640, height=480)
     write_humanoid_video(style, cam, args.out / f"{STYLE_VIDEO[0]}.mp4")
     print("wrote", ", ".join(p.name for p in sorted(args.out.glob("*")) if p.suffix in (".bvh", ".mp4")))
 
 
-def write_content_bank(per_content: int = 4, length: int = 80, steps: int = 50, guidance: float = 2.5,
-                       seed: int = 0) -> Path:
-    """The shipped content bank, sampled from the shipped prior (:func:`transfer.content_bank.make_content_bank`),
-    with its model card."""
+def write_content_bank(per_content: int = 4, length: int = 80, seed: int = 0) -> Path:
+    """The shipped content bank, sampled from the shipped prior (:func:`transfer.content_bank.make_content_bank`,
+    the project's :class:`transfer.sampling.TextToMotion` settings), with its model card."""
     import json
     import time
+    from dataclasses import asdict
 
     from motioncore.files import atomic_write_text
     from transfer.content_bank import make_content_bank
+    from transfer.sampling import TEXT_TO_MOTION
     from transfer.shipped import weights_path
     from video2style.pipeline import load_models
 
-    models = load_models()
+    models, settings = load_models(), TEXT_TO_MOTION
     path = weights_path("content_bank.safetensors")
     start = time.time()
-    n = make_content_bank(models.prior, models.text_encoder, path, per_content, length, steps, guidance, seed)
+    n = make_content_bank(models, path, per_content, length, seed, settings)
     card = {
         "model": "video2style content bank: neutral content motions for style learning when no dataset cache is installed",
-        "made_by": f"python samples/make_samples.py --content-bank: transfer.content_bank.make_content_bank "
-                   f"with the shipped denoiser.safetensors ({steps} DDIM steps, guidance {guidance}, seed {seed})",
+        "made_by": "python samples/make_samples.py --content-bank: transfer.content_bank.make_content_bank "
+                   f"with the shipped denoiser.safetensors, seed {seed}",
+        "text_to_motion": asdict(settings),
         "contents": f"{per_content} samples x 10 Bandai-2 contents ({n} clips), {length} frames each, normalised "
                     "features, float16",
         "licence": "CC BY-NC 4.0, inherited from the prior's Bandai-Namco training data",

@@ -41,3 +41,20 @@ def test_a_folder_and_its_two_files_load_the_same_bundle_as_the_shipped_one():
     for b in (folder, files):
         assert b.prior_path == shipped.prior_path and torch.equal(b.mean, shipped.mean) and torch.equal(b.std, shipped.std)
         assert all(torch.equal(p, q) for p, q in zip(b.prior.state_dict().values(), shipped.prior.state_dict().values()))
+
+
+def test_text_to_motion_draws_with_the_settings_and_the_guide_only_when_asked():
+    from transfer.sampling import TEXT_TO_MOTION, TextToMotion, generate
+
+    g = torch.Generator().manual_seed(1)
+    bundle = MethodBundle(tiny_denoiser(), torch.randn(FEATURES.dim, generator=g) * 0.1, torch.rand(FEATURES.dim, generator=g) + 0.5)
+    text = torch.randn(2, bundle.prior.config.text_dim, generator=g)
+    off = TextToMotion(steps=4, guidance=2.0, contact_rate=0.0)
+    plain = generate(bundle.prior, bundle.scheduler, text, 12, 4, 2.0, torch.Generator().manual_seed(3))
+    assert torch.equal(bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3), off), plain)
+    guided = bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3), TextToMotion(steps=4, guidance=2.0))
+    assert guided.shape == (2, 12, FEATURES.dim) and not torch.equal(guided, plain)
+    assert TEXT_TO_MOTION.contact_rate > 0 and TEXT_TO_MOTION.contact_iterations > 0  # the shipped draw is guided
+    for bad in ({"steps": 0}, {"guidance": -1.0}, {"contact_rate": -0.1}, {"contact_iterations": -1}):
+        with pytest.raises(ValueError, match="TextToMotion: expected"):
+            TextToMotion(**bad)

@@ -187,6 +187,32 @@ def test_contact_loss_is_zero_for_planted_feet_and_grows_when_the_root_slides_un
         contact_loss(x[..., :-1], valid, mean[:-1], std[:-1])
 
 
+def test_contact_guide_plants_sliding_feet_clip_by_clip_and_leaves_planted_ones():
+    from motioncore.representation import FEATURES, encode
+    from tests.helpers import random_motion
+    from transfer.prior import contact_guide, contact_loss
+
+    m = random_motion(seconds=2, seed=1, amplitude=0.0)
+    x = encode(type(m)(m.skeleton, m.lrot[:1].expand_as(m.lrot).clone(), m.lpos[:1].expand_as(m.lpos).clone(),
+                       m.fps))[None]  # one pose held: the feet are planted
+    mean, std = torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim)
+    valid = torch.ones(x.shape[:2], dtype=torch.bool)
+    sliding = x.clone()
+    sliding[..., FEATURES.root_lvel.start] += 0.02
+    guide = contact_guide(mean, std, rate=0.002, iterations=2)  # a step for metre-scale features (std 1)
+    with torch.no_grad():  # as the sampler calls it
+        planted = guide(sliding)
+    before, after = float(contact_loss(sliding, valid, mean, std)), float(contact_loss(planted, valid, mean, std))
+    assert after < 0.5 * before  # the guide moves the draw towards planted feet
+    assert not planted.requires_grad and planted.shape == sliding.shape
+    assert torch.allclose(guide(x), x, atol=1e-6)  # planted feet: nothing to correct
+    assert torch.equal(contact_guide(mean, std, 0.002, 0)(sliding), sliding)
+    pair = guide(torch.cat([sliding, x]))  # a clip's correction does not depend on the others in its batch
+    assert torch.allclose(pair[:1], planted, atol=1e-6)
+    with pytest.raises(ValueError, match="expected"):
+        contact_guide(mean, std, -1.0, 2)
+
+
 def test_fk_weight_is_a_stage_a_finished_run_may_resume_with_and_its_log_gains_the_column(tmp_path):
     import csv
 

@@ -74,3 +74,15 @@ def test_ddpm_eta_is_seeded():
     a = denoise(Oracle(target), s, torch.zeros(1, 4, 2), 500, 5, eta=1.0, generator=torch.Generator().manual_seed(3))
     b = denoise(Oracle(target), s, torch.zeros(1, 4, 2), 500, 5, eta=1.0, generator=torch.Generator().manual_seed(3))
     assert torch.equal(a, b)
+
+
+def test_a_guide_corrects_every_x0_prediction_and_the_last_one_is_the_result():
+    model = Oracle(torch.zeros(1, 6, 3))
+    seen = []
+
+    def guide(x0):
+        seen.append(x0.clone())
+        return x0 + 1.0
+
+    out = denoise(model, DiffusionScheduler(100), torch.randn(1, 6, 3), 99, 5, guide=guide)
+    assert len(seen) == 5 and torch.allclose(out, torch.ones(1, 6, 3))

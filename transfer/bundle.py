@@ -10,6 +10,7 @@ from pathlib import Path
 
 import torch
 
+from transfer.sampling import TEXT_TO_MOTION, TextToMotion, generate
 from transfer.scheduler import DiffusionScheduler
 from transfer.shipped import weights_path
 
@@ -42,6 +43,17 @@ class MethodBundle:
     def denormalize(self, x: torch.Tensor, inplace: bool = False) -> torch.Tensor:
         """Normalised features ``(..., D)`` -> raw features (``inplace``: in ``x``'s memory)."""
         return x.mul_(self.std).add_(self.mean) if inplace else x * self.std + self.mean
+
+    def text_to_motion(self, text: torch.Tensor, length: int, generator: torch.Generator | None = None,
+                       settings: TextToMotion = TEXT_TO_MOTION) -> torch.Tensor:
+        """Text embeddings ``(B, E)`` -> normalised features ``(B, length, D)`` drawn by the prior from pure noise
+        as ``settings`` say (:class:`transfer.sampling.TextToMotion`), on the prior's device."""
+        from transfer.prior import contact_guide
+
+        guide = None
+        if settings.contact_rate > 0 and settings.contact_iterations > 0:
+            guide = contact_guide(self.mean, self.std, settings.contact_rate, settings.contact_iterations)
+        return generate(self.prior, self.scheduler, text, length, settings.steps, settings.guidance, generator, guide)
 
     @classmethod
     def from_pretrained(cls, source: str | Path | tuple[Path, Path], device: str | torch.device = "cpu") -> MethodBundle:

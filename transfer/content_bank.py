@@ -16,8 +16,7 @@ from safetensors.torch import load_file, save_file
 
 from motioncore.files import atomic_output
 from transfer.captions import BANDAI2_CONTENTS, content_caption
-from transfer.sampling import generate
-from transfer.scheduler import DiffusionScheduler
+from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
 
 @dataclass
@@ -47,16 +46,15 @@ class ContentBank:
 
 
 @torch.no_grad()
-def make_content_bank(prior, text_encoder, out_path: Path, per_content: int = 4, length: int = 80, steps: int = 50,
-                      guidance: float = 2.5, seed: int = 0) -> int:
-    """Sample ``per_content`` neutral clips for each Bandai-2 content (on the prior's device); returns the number
-    written."""
-    scheduler = DiffusionScheduler(prior.config.num_train_steps)
+def make_content_bank(models, out_path: Path, per_content: int = 4, length: int = 80, seed: int = 0,
+                      settings: TextToMotion = TEXT_TO_MOTION) -> int:
+    """Sample ``per_content`` neutral clips for each Bandai-2 content with the prior of ``models``
+    (:class:`transfer.bundle.MethodBundle`, on its device) as ``settings`` say; returns the number written."""
     gen = torch.Generator().manual_seed(seed)
     feats, records = [], []
     for content in BANDAI2_CONTENTS:
-        text = text_encoder.encode([content_caption(content)] * per_content)
-        feats.append(generate(prior, scheduler, text, length, steps, guidance, gen))
+        text = models.text_encoder.encode([content_caption(content)] * per_content)
+        feats.append(models.text_to_motion(text, length, gen, settings))
         records += [{"caption": content_caption(content), "content": content, "style": "normal", "length": length}] * per_content
     with atomic_output(out_path, ".tmp") as tmp:
         save_file({"features": torch.cat(feats).to("cpu", torch.float16).contiguous()}, str(tmp),

@@ -92,14 +92,42 @@ def contact_loss(pred: torch.Tensor, valid: torch.Tensor, mean: torch.Tensor, st
     ``pred``'s own contact flags (clipped to 0-1, no gradient through them), as MDM's foot-contact term. It ties the
     root's travel to the feet the model itself says are planted, which no other term couples; attainable at any noise
     level, unlike matching a clip's exact foot velocities."""
-    if pred.shape[-1] != FEATURES.dim or pred.ndim != 3 or mean.shape != (FEATURES.dim,):
-        raise ValueError(f"contact_loss: expected pred (B, T, {FEATURES.dim}) and mean (D,), got "
-                         f"{tuple(pred.shape)}, {tuple(mean.shape)}")
+    moved, weight = _planted_travel(pred, valid, mean, std, "contact_loss")
+    return moved.sum() / (3 * weight.sum()).clamp_min(1)
+
+
+def _planted_travel(pred, valid, mean, std, caller: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`contact_loss`'s sums per clip ``(B,)``: the weighted squared travel, and the weights."""
+    if pred.shape[-1] != FEATURES.dim or pred.ndim != 3 or mean.shape != (FEATURES.dim,) or valid.shape != pred.shape[:2]:
+        raise ValueError(f"{caller}: expected pred (B, T, {FEATURES.dim}), valid (B, T) and mean (D,), got "
+                         f"{tuple(pred.shape)}, {tuple(valid.shape)}, {tuple(mean.shape)}")
     raw = pred * std.to(pred) + mean.to(pred)
     moved = feet_velocity(raw, positions_from_rotations(raw))  # (B, T-1, 4, 3)
     planted = raw[..., :-1, FEATURES.contacts].detach().clamp(0.0, 1.0) * (valid[..., :-1] & valid[..., 1:])[..., None]
-    w = planted[..., None]
-    return ((100.0 * moved) ** 2 * w).sum() / (3 * w.sum()).clamp_min(1)
+    return ((100.0 * moved) ** 2 * planted[..., None]).sum((1, 2, 3)), planted.sum((1, 2))
+
+
+def contact_guide(mean: torch.Tensor, std: torch.Tensor, rate: float, iterations: int):
+    """A sampling guide (:func:`transfer.sampling.denoising_steps`) that keeps the feet the prior says are planted in
+    place: each x0 prediction ``(B, T, D)`` (normalised with ``mean, std (D,)``) takes ``iterations`` gradient steps of
+    size ``rate`` down its own :func:`contact_loss`, each clip's alone (so a clip's draw does not depend on the
+    others in its batch). Only the x0 prediction moves, through the motion code's forward kinematics; the denoiser
+    is not differentiated. The rotation channels are planted (what ``representation.decode`` reads); the position
+    channels keep their own feet (guiding both was measured, docs/RESULTS.md, "Planted feet at sampling")."""
+    if rate < 0 or iterations < 0:
+        raise ValueError(f"contact_guide: expected rate >= 0 and iterations >= 0, got {rate}, {iterations}")
+
+    def guide(x0: torch.Tensor) -> torch.Tensor:
+        valid = torch.ones(x0.shape[:2], dtype=torch.bool, device=x0.device)
+        with torch.enable_grad():
+            for _ in range(iterations):
+                x = x0.detach().requires_grad_(True)
+                moved, weight = _planted_travel(x, valid, mean, std, "contact_guide")
+                (grad,) = torch.autograd.grad((moved / (3 * weight).clamp_min(1)).sum(), x)
+                x0 = x - rate * grad
+        return x0.detach()
+
+    return guide
 
 
 def diffusion_loss(model, scheduler, x0, valid, text, drop, velocity_weight, generator, precision: str = "fp32",

@@ -1,7 +1,8 @@
 """Sampling loops over a denoiser and a scheduler: text-to-motion, and editing from a given step."""
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import torch
 
@@ -18,11 +19,40 @@ def predict_x0(model, x_t, t, text=None, valid=None, guidance: float = 1.0):
     return uncond + guidance * (cond - uncond)
 
 
+Guide = Callable[[torch.Tensor], torch.Tensor]  # an x0 prediction (B, T, D) -> a corrected one, same shape
+
+
+@dataclass(frozen=True)
+class TextToMotion:
+    """How motion is drawn from text alone: the content bank, the demo's sample clips, the prior's benchmarks.
+    (Style learning's neutral pair is an edit with its own settings, :class:`transfer.style_config.LearnConfig`.)
+    Chosen in docs/RESULTS.md, "Planted feet at sampling".
+
+    ``contact_rate``, ``contact_iterations``: each x0 prediction takes that many gradient steps of that size down
+    the planted feet's travel (:func:`transfer.prior.contact_guide`); 0 turns it off.
+    """
+
+    steps: int = 50  # DDIM steps
+    guidance: float = 2.0  # classifier-free guidance scale
+    contact_rate: float = 0.02
+    contact_iterations: int = 2
+
+    def __post_init__(self):
+        for name, value, low in (("steps", self.steps, 1), ("guidance", self.guidance, 0.0),
+                                 ("contact_rate", self.contact_rate, 0.0), ("contact_iterations", self.contact_iterations, 0)):
+            if value < low:
+                raise ValueError(f"TextToMotion: expected {name} >= {low}, got {value}")
+
+
+TEXT_TO_MOTION = TextToMotion()  # the project's text-to-motion settings (the content bank, the demo's clips)
+
+
 def denoising_steps(model, scheduler: DiffusionScheduler, x_t, start: int, num_steps: int, text=None, valid=None,
                     guidance: float = 1.0, inpaint: tuple[torch.Tensor, list[slice]] | None = None, eta: float = 0.0,
-                    generator: torch.Generator | None = None) -> Iterator[tuple[int, torch.Tensor]]:
+                    generator: torch.Generator | None = None, guide: Guide | None = None) -> Iterator[tuple[int, torch.Tensor]]:
     """The DDIM loop of :func:`denoise`, one step at a time: yields ``(t, x_t)``, the sample ``(B, T, D)`` that
-    enters each step ``t`` of the schedule (``start`` down to 0), then ``(-1, x0)``, the result.
+    enters each step ``t`` of the schedule (``start`` down to 0), then ``(-1, x0)``, the result. ``guide``
+    corrects each x0 prediction before the step (before ``inpaint`` overwrites its slices).
 
     Lazy: each prediction is made when the next item is asked for, so a consumer that needs only the steps'
     inputs (:func:`transfer.learn.reconstruction_loss`) stops before the last one. The caller chooses
@@ -31,6 +61,8 @@ def denoising_steps(model, scheduler: DiffusionScheduler, x_t, start: int, num_s
     for t in scheduler.set_timesteps(num_steps, start).tolist():
         yield t, x_t
         x0 = predict_x0(model, x_t, torch.full((x_t.shape[0],), t, device=x_t.device), text, valid, guidance)
+        if guide is not None:
+            x0 = guide(x0)
         if inpaint is not None:
             x0 = overwrite(x0, *inpaint)
         x_t = scheduler.step(x0, t, x_t, eta=eta, generator=generator)
@@ -44,14 +76,15 @@ def denoising_steps(model, scheduler: DiffusionScheduler, x_t, start: int, num_s
 @torch.no_grad()
 def denoise(model, scheduler: DiffusionScheduler, x_t, start: int, num_steps: int, text=None, valid=None,
             guidance: float = 1.0, inpaint: tuple[torch.Tensor, list[slice]] | None = None, eta: float = 0.0,
-            generator: torch.Generator | None = None) -> torch.Tensor:
+            generator: torch.Generator | None = None, guide: Guide | None = None) -> torch.Tensor:
     """Denoise ``x_t (B, T, D)`` (at step ``start``) to x0 in ``num_steps`` DDIM steps.
 
     ``inpaint = (reference (B, T, D), slices)``: at every step the x0 prediction takes the
-    reference's values on those feature slices, and the noise on them is zero (Hu et al. eq. 4-5).
+    reference's values on those feature slices, and the noise on them is zero (Hu et al. eq. 4-5). ``guide``:
+    see :func:`denoising_steps` (it runs with gradients on, inside this function's ``no_grad``).
     ``text (B, E)``, ``valid (B, T)`` and the reference are on ``x_t``'s device, where the result is.
     """
-    for _, x in denoising_steps(model, scheduler, x_t, start, num_steps, text, valid, guidance, inpaint, eta, generator):
+    for _, x in denoising_steps(model, scheduler, x_t, start, num_steps, text, valid, guidance, inpaint, eta, generator, guide):
         pass  # the last item is the result
     return x
 
@@ -72,11 +105,13 @@ def noise_keeping(scheduler, x: torch.Tensor, noise: torch.Tensor, k, keep: list
 
 
 @torch.no_grad()
-def generate(model, scheduler: DiffusionScheduler, text: torch.Tensor, length: int, num_steps: int = 50,
-             guidance: float = 2.5, generator: torch.Generator | None = None) -> torch.Tensor:
+def generate(model, scheduler: DiffusionScheduler, text: torch.Tensor, length: int, num_steps: int = TEXT_TO_MOTION.steps,
+             guidance: float = TEXT_TO_MOTION.guidance, generator: torch.Generator | None = None, guide: Guide | None = None) -> torch.Tensor:
     """Text embeddings ``(B, E)`` -> normalised features ``(B, length, D)`` from pure noise, on the model's device
-    (the noise is drawn on the CPU from ``generator``)."""
+    (the noise is drawn on the CPU from ``generator``). The project's text-to-motion settings are
+    :class:`TextToMotion`, drawn by :meth:`transfer.bundle.MethodBundle.text_to_motion`."""
     device = model_device(model)
     text = text.to(device)
     x = torch.randn(text.shape[0], length, model.config.feature_dim, generator=generator).to(device)
-    return denoise(model, scheduler, x, scheduler.num_train_steps - 1, num_steps, text, guidance=guidance, generator=generator)
+    return denoise(model, scheduler, x, scheduler.num_train_steps - 1, num_steps, text, guidance=guidance,
+                   generator=generator, guide=guide)

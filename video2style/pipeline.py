@@ -16,6 +16,7 @@ from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_ca
 from motioncore.skeleton import CANONICAL
 from transfer.apply import stylize_motion
 from transfer.bundle import load_models
+from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 from transfer.shipped import weights_path
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
@@ -23,18 +24,16 @@ BVH_SUFFIX = ".bvh"
 MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
 
 
-def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, steps: int = 50, guidance: float = 2.5,
+def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, settings: TextToMotion = TEXT_TO_MOTION,
                   device: str = "cpu", from_positions: bool = False) -> list[Motion]:
-    """Text-to-motion samples of the shipped prior (run on ``device``), one per caption, as canonical motions
-    standing on the floor. ``from_positions``: the rotations fitted to the samples' joint-position channels
+    """Text-to-motion samples of the shipped prior (run on ``device``, drawn as ``settings`` say), one per caption,
+    as canonical motions standing on the floor. ``from_positions``: the rotations fitted to the samples' joint-position channels
     (:func:`motioncore.ik_fit.decode_via_positions`), whose feet the prior places better than its rotation
     channels do (docs/RESULTS.md, the prior's gait); else decoded from the rotation channels."""
     from motioncore.ik_fit import decode_via_positions
-    from transfer.sampling import generate
 
     m = load_models(device)
-    gen = torch.Generator().manual_seed(seed)
-    x = generate(m.prior, m.scheduler, m.text_encoder.encode(captions), frames, steps, guidance, gen).cpu()
+    x = m.text_to_motion(m.text_encoder.encode(captions), frames, torch.Generator().manual_seed(seed), settings).cpu()
     to_motion = (lambda f: decode_via_positions(f, CANONICAL.fps)) if from_positions else decode
     return [place_on_floor(to_motion(m.denormalize(f))) for f in x]
 
