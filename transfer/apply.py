@@ -16,7 +16,7 @@ from motioncore.representation import FEATURES, decode, encode, facing_angle
 from motioncore.skating import motion_skating
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 from transfer.device import model_device
-from transfer.edit import neutralize, pair_guide, stylize
+from transfer.edit import neutralize, stylize
 from transfer.posture import (
     arm_gate,
     arm_motion_share,
@@ -170,18 +170,16 @@ def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tenso
 
 
 @torch.no_grad()
-def neutralize_windows(bundle, x: torch.Tensor, text: torch.Tensor, learned: LearnConfig,
+def neutralize_windows(prior, scheduler, x: torch.Tensor, text: torch.Tensor, learned: LearnConfig,
                        generator: torch.Generator, step: int | None = None, window: int = 80,
                        overlap: int | None = None) -> torch.Tensor:
     """:func:`transfer.edit.neutralize` of normalised features ``x (T, D)`` under ``text (1, E)`` (from ``step``,
-    default G) by the prior of ``bundle`` (:class:`transfer.bundle.MethodBundle`) with the pair's guide
-    (:func:`transfer.edit.pair_guide`), in ``window``-frame windows crossfaded over ``overlap`` (default:
+    default G), in ``window``-frame windows crossfaded over ``overlap`` (default:
     :func:`transfer.windows.crossfade_overlap`): the prior, trained on 80-frame windows, draws longer motion
     shuffling. A clip no longer than a window is drawn whole. ``x`` and ``text`` on the prior's device."""
     overlap = crossfade_overlap(window) if overlap is None else overlap
     starts, windows = _window_views(x, window, overlap)
-    guide = pair_guide(bundle, learned)
-    parts = _in_batches(lambda p, t: neutralize(bundle.prior, bundle.scheduler, p, t, learned, generator, step, guide),
+    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, learned, generator, step),
                         starts, windows, text.expand(len(starts), -1))
     return crossfade(parts, starts, x.shape[0])
 
@@ -195,7 +193,7 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
     result is on ``x``'s."""
     device = model_device(bundle.prior)
     gen = torch.Generator().manual_seed(seed + 1)
-    return neutralize_windows(bundle, x.to(device), neutral_text.to(device), learned, gen,
+    return neutralize_windows(bundle.prior, bundle.scheduler, x.to(device), neutral_text.to(device), learned, gen,
                               config.neutralize_step, window, overlap).to(x.device)
 
 

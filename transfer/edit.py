@@ -14,29 +14,17 @@ from transfer.style_config import ApplyConfig, LearnConfig
 TRAJECTORY = [FEATURES.root_rvel, FEATURES.root_lvel]  # inpainted: the root's path on the ground
 
 
-def pair_guide(bundle, config: LearnConfig):
-    """The sampling guide the neutral pair is drawn with (:func:`transfer.prior.contact_guide` with
-    ``config.pair_contact_rate`` and ``config.pair_contact_iterations``, in the normalisation of ``bundle``, a
-    :class:`transfer.bundle.MethodBundle`), or None when they turn it off."""
-    if config.pair_contact_rate <= 0 or config.pair_contact_iterations <= 0:
-        return None
-    from transfer.prior import contact_guide
-
-    return contact_guide(bundle.mean, bundle.std, config.pair_contact_rate, config.pair_contact_iterations)
-
-
 def neutralize(prior, scheduler: DiffusionScheduler, x: torch.Tensor, text: torch.Tensor, config: LearnConfig,
-               generator: torch.Generator, step: int | None = None, guide=None) -> torch.Tensor:
+               generator: torch.Generator, step: int | None = None) -> torch.Tensor:
     """Neutral version ``(B, T, D)`` of normalised motions ``x (B, T, D)``, same path, text ``(B, E)``;
-    noised to ``step`` (default G, ``config.pair_noise_step``) and denoised with the text (and ``guide``,
-    :func:`pair_guide`). ``x`` and ``text`` are on the prior's device; the noise is drawn on the CPU from
-    ``generator`` and moved there."""
+    noised to ``step`` (default G, ``config.pair_noise_step``) and denoised with the text. ``x`` and ``text`` are on
+    the prior's device; the noise is drawn on the CPU from ``generator`` and moved there."""
     g = config.pair_noise_step if step is None else step
     n_steps = max(1, round(config.pair_ddim_steps * g / config.pair_noise_step))
     noise = torch.randn(x.shape, generator=generator).to(x.device)
     x_g = noise_keeping(scheduler, x, noise, g, TRAJECTORY)
     return denoise(prior, scheduler, x_g, g, n_steps, text, guidance=config.guidance,
-                   inpaint=(x, TRAJECTORY), generator=generator, guide=guide)
+                   inpaint=(x, TRAJECTORY), generator=generator)
 
 
 class StyleGuided(torch.nn.Module):

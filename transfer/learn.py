@@ -25,7 +25,7 @@ from motioncore.representation import FEATURES
 from transfer.apply import neutralize_windows
 from transfer.captions import caption
 from transfer.device import model_device
-from transfer.edit import TRAJECTORY, neutralize, pair_guide
+from transfer.edit import TRAJECTORY, neutralize
 from transfer.lora import add_lora, lora_state
 from transfer.posture import bound_pair
 from transfer.sampling import denoising_steps, noise_keeping, overwrite
@@ -182,9 +182,9 @@ def _pair(bundle, dataset, example: torch.Tensor, neutral_text: str, config: Lea
     ``config.pair_between``, held where ``dataset``'s neutral clips of ``neutral_text`` hold the body (:func:`transfer.posture.bound_pair`)."""
     text = bundle.text_encoder.encode([neutral_text]).to(example.device)
     if config.pair_windowed:
-        pair = neutralize_windows(bundle, example, text, config, gen, window=config.window)
+        pair = neutralize_windows(bundle.prior, bundle.scheduler, example, text, config, gen, window=config.window)
     else:
-        pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen, guide=pair_guide(bundle, config))[0]
+        pair = neutralize(bundle.prior, bundle.scheduler, example[None], text, config, gen)[0]
     if config.pair_between:
         pair = bound_pair(pair, example, _neutral_clips(dataset, neutral_text, example.device))
     return pair

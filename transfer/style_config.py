@@ -50,9 +50,6 @@ class LearnConfig:
     pair_windowed: bool = True  # an example longer than ``window`` gets its pair drawn in ``window``-frame windows
     # crossfaded over a quarter of one, as apply draws: the prior, trained on 80-frame windows, draws longer motion
     # shuffling (docs/RESULTS.md "The neutral pair in windows"); False: drawn whole, as before 2026-12-06
-    pair_contact_rate: float = 0.0  # the neutral pair's x0 predictions take ``pair_contact_iterations`` gradient steps
-    pair_contact_iterations: int = 2  # of this size down the planted feet's travel (transfer.prior.contact_guide, as
-    # text-to-motion draws, transfer.sampling.TextToMotion); 0: drawn without
 
 
 @dataclass
@@ -114,7 +111,6 @@ CONFIG_RANGES = {
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
     "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
     "pair_between": (bool, None, None), "guard_swing": (bool, None, None), "pair_windowed": (bool, None, None),
-    "pair_contact_rate": (float, 0.0, 1.0), "pair_contact_iterations": (int, 0, 20),
 }
 # learning fields a style file written before they existed was learned without (their default since differs):
 # read so from a file that lacks them (:meth:`transfer.style_file.Style.configs`)

@@ -169,7 +169,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     from transfer.bundle import load_models
     from transfer.device import model_device
     from transfer.edit import neutralize as neutralize_windows
-    from transfer.edit import pair_guide, stylize
+    from transfer.edit import stylize
     from transfer.style_config import strength_settings
     from video2style.pipeline import MAX_CLIP_SECONDS
 
@@ -219,9 +219,9 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     streams = []
     if neutral_text is not None and config.neutralize_step > 0:
         gen_n = torch.Generator().manual_seed(seed + 1)
-        text, guide = neutral_text.to(device), pair_guide(m, learned)
+        text = neutral_text.to(device)
         streams.append(WindowStream(lambda p, i: neutralize_windows(
-            m.prior, scheduler, p, text.expand(p.shape[0], -1), learned, gen_n, config.neutralize_step, guide), n, batch))
+            m.prior, scheduler, p, text.expand(p.shape[0], -1), learned, gen_n, config.neutralize_step), n, batch))
     gen = torch.Generator().manual_seed(seed)
     streams.append(WindowStream(lambda p, i: stylize(model, scheduler, p, learned, config, gen, step=step, prior=m.prior), n, batch))
     rvel = FEATURES.root_rvel

@@ -84,8 +84,6 @@ VARIANTS = {
     # 2026-12-06: the neutral pair of an example longer than the prior's 80-frame window drawn whole (before), not in
     # windows (transfer.learn._pair; docs/RESULTS.md "The neutral pair in windows")
     "ours-whole-pair": {"pair_windowed": False},
-    # ... and the neutral pair drawn with the planted-feet guide of text-to-motion (transfer.edit.pair_guide)
-    "ours-pair-contact": {"pair_contact_rate": 0.02},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
