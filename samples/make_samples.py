@@ -5,9 +5,10 @@
     python samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
 
 Content clips are text-to-motion samples of the project's diffusion prior (neutral style; the project's
-``transfer.sampling.TextToMotion`` settings, whose guide plants the feet of the rotation channels), decoded from
-their rotation channels as the pipeline decodes (``--from-positions``: rotations fitted to the samples'
-joint-position channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. Each is
+``transfer.sampling.TextToMotion`` settings), their rotations fitted to the samples' joint-position channels
+(:func:`motioncore.ik_fit.decode_via_positions`: bone rolls in the data's convention; the rotation channels'
+own rolls drift, and apply would read such a clip as a foreign rig; ``--from-rotations`` decodes the rotation
+channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. Each is
 drawn as long as the prior's training clips of its action: 80 frames (4 s), the run 57 (the median of the data's
 neutral runs, 46-67 frames; drawn longer, a run lifts its feet less, docs/RESULTS.md). The style video is a prior
 sample of an elderly-style walk rendered by the project's humanoid renderer
@@ -44,8 +45,7 @@ def main(argv: list[str] | None = None) -> None:
     # in 8.9 % of frames, seed 1's turn lifts 12.3 cm; seed 2 slides in no frame)
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE)
-    ap.add_argument("--from-positions", action="store_true",
-                    help="fit the rotations to the samples' position channels instead of decoding their rotation channels")
+    ap.add_argument("--from-rotations", action="store_true", help="decode the samples' rotation channels")
     ap.add_argument("--content-bank", action="store_true",
                     help="also remake the content bank that learning uses without a dataset cache "
                          "(transfer/weights/content_bank.safetensors and its card) from the shipped prior")
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
     motions = {}
     for frames in sorted({n for _, n in wanted.values()}, reverse=True):  # one batch per length
         names = [name for name, (_, n) in wanted.items() if n == frames]
-        drawn = prior_samples([wanted[name][0] for name in names], frames, args.seed, from_positions=args.from_positions)
+        drawn = prior_samples([wanted[name][0] for name in names], frames, args.seed, from_positions=not args.from_rotations)
         motions.update(zip(names, drawn))
     layout = BvhLayout.default(CANONICAL.skeleton, "ZXY", scale=0.01)  # centimetres, like most tools
     for name in CONTENT:
