@@ -1,4 +1,5 @@
-"""Training and loading of the text-conditioned motion diffusion prior."""
+"""Training and loading of the text-conditioned motion diffusion prior, and its planted-feet term (a training loss and
+a sampling guide)."""
 from __future__ import annotations
 
 import csv
