@@ -1,11 +1,16 @@
 """Quality of the shipped prior and motion encoder on the Bandai-2 test split (issue 4's evidence).
 
     python benchmarks/eval_prior.py [--data cache/dataset] [--previews prior_previews/] [--threads 2] [--prior W] [--encoder W]
+        [--steps 50] [--guidance 2.0] [--contact-rate 0.02] [--contact-iterations 2]
+
+Samples are drawn with the project's text-to-motion settings (``transfer.sampling.TextToMotion``) unless the options
+say otherwise (``--contact-rate 0``: without the planted-feet guide).
 
 Prints retrieval R@1/R@3 (motion -> text over content captions and over content x style captions,
 text -> motion in galleries of 32), then samples one clip per content x style caption and prints
 the Fréchet distance to the real test originals on the motion encoder's features and on the
-evaluation content classifier's features, the foot-skating ratio of samples and of real clips,
+evaluation content classifier's features, the foot-skating ratio of samples and of real clips (placed by the
+position channels, and ``_rotations``: by the rotation channels, as the pipeline decodes),
 and seconds per sample. ``--previews`` writes one mp4 per content with its seven styles side by side.
 """
 from __future__ import annotations
@@ -95,7 +100,9 @@ def sample_quality(bundle, data: MotionDataset, out_dir: Path | None, length: in
     pos_real = [decode_positions(denormalize(x)) for x in real]
     out = {"samples": len(samples), "seconds_per_sample": per_sample, **asdict(settings),
            "fd_encoder_features": fd, "skating_samples": foot_skating_ratio(pos_samples),
-           "skating_real": foot_skating_ratio(pos_real)}
+           "skating_real": foot_skating_ratio(pos_real),
+           "skating_samples_rotations": foot_skating_ratio([decode(denormalize(x)).global_positions() for x in samples]),
+           "skating_real_rotations": foot_skating_ratio([decode(denormalize(x)).global_positions() for x in real])}
     if classifier is not None:
         from evaluation.classifiers import run_batched
 
