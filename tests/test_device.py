@@ -116,6 +116,11 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
         out = apply_style_features(MethodBundle(prior), style, x.to(meta), LearnConfig(), config, neutral_text=text)
         assert out.device == meta and out.shape == x.shape
     assert generate(prior, DiffusionScheduler(), text, 40, 3, 2.5, gen).device == meta
+    from transfer.sampling import TextToMotion
+
+    bundle = MethodBundle(prior, torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim))  # CPU normalisation, as loaded
+    drawn = bundle.text_to_motion(text, 40, gen, TextToMotion(steps=3))  # the planted-feet guide on the device too
+    assert drawn.device == meta and drawn.shape == (1, 40, FEATURES.dim)
     window = x[None, :80].to(meta)
     assert reconstruction_loss(style.train(), DiffusionScheduler(), window, window, LearnConfig(), gen).device == meta
 
