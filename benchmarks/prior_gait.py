@@ -12,7 +12,8 @@ are measured the same way, and with ``--dataset`` the prior's own training data:
 is within 3 cm of its lowest point and moves faster than 0.5 m/s) and the ankle lift (the smaller of the
 two ankles' highest minus lowest point over the clip). Real walking lifts the ankle 15-25 cm. ``--frames`` sets
 the samples' length; with ``--data-length`` each caption's is that of the data's clips of its action (at most
-``--frames``): a run, 46-67 frames in the data, is then not drawn longer than any run the prior learned from.
+``--frames``; ``transfer.content_bank.DATA_FRAMES``): a run, 46-67 frames in the data, is then not drawn longer than
+any run the prior learned from.
 """
 from __future__ import annotations
 
@@ -46,12 +47,6 @@ def _training_data():
     return MotionDataset(default_dataset_dir(), "train")
 
 
-def _data_length(action: str) -> int:
-    """The median length (frames) of the dataset cache's neutral, unmirrored training clips of ``action``."""
-    return int(statistics.median(r.length for r in _training_data().records
-                                 if r.content == action and r.style == "normal" and not r.mirrored))
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("real", nargs="*", type=Path, help="BVH files of real walks to compare with")
@@ -69,7 +64,7 @@ def main() -> None:
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
     ap.add_argument("--frames", type=int, default=80, help="sample length (default: 80, the prior's training window)")
     ap.add_argument("--data-length", action="store_true", help="sample each caption as long as its neutral training "
-                    "clips are (median; at most --frames): runs are 46-67 frames in the data")
+                    "clips are (median, transfer.content_bank.DATA_FRAMES; at most --frames): runs are 46-67 frames in the data")
     ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one "
                     "(e.g. a training run's denoiser.safetensors)")
     args = ap.parse_args()
@@ -78,6 +73,7 @@ def main() -> None:
     from motioncore.representation import decode, decode_positions
     from motioncore.retarget import place_on_floor
     from transfer.bundle import ENCODER_FILE, MethodBundle, load_models
+    from transfer.content_bank import DATA_FRAMES
     from transfer.shipped import weights_path
     from video2style.pipeline import read_clip
 
@@ -87,7 +83,7 @@ def main() -> None:
     text = m.text_encoder.encode(list(CAPTIONS))
     lengths = dict.fromkeys(CAPTIONS, args.frames)
     if args.data_length:
-        lengths = {c: min(args.frames, _data_length(a)) for c, a in zip(CAPTIONS, ACTIONS)}
+        lengths = {c: min(args.frames, DATA_FRAMES[a]) for c, a in zip(CAPTIONS, ACTIONS)}
         print("sample lengths: " + ", ".join(f"{c!r} {n} frames" for c, n in lengths.items()))
     rows: dict[str, list[tuple[float, float]]] = {}
     for seed in range(args.seeds):

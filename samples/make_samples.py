@@ -9,8 +9,8 @@ Content clips are text-to-motion samples of the project's diffusion prior (neutr
 (:func:`motioncore.ik_fit.decode_via_positions`: bone rolls in the data's convention; the rotation channels'
 own rolls drift, and apply would read such a clip as a foreign rig; ``--from-rotations`` decodes the rotation
 channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. Each is
-drawn as long as the prior's training clips of its action: 80 frames (4 s), the run 57 (the median of the data's
-neutral runs, 46-67 frames; drawn longer, a run lifts its feet less, docs/RESULTS.md). The style video is a prior
+drawn as long as the prior's training clips of its action (``transfer.content_bank.DATA_FRAMES``), at most 80
+frames (4 s, the prior's window): the run 57 (drawn longer, a run lifts its feet less, docs/RESULTS.md). The style video is a prior
 sample of an elderly-style walk rendered by the project's humanoid renderer
 (:mod:`lifting.render_humanoid`), which the BlazePose tracker reads like a filmed person.
 """
@@ -24,12 +24,13 @@ import torch
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.motion import resample
 from motioncore.skeleton import CANONICAL
+from transfer.content_bank import DATA_FRAMES
 from video2style.pipeline import prior_samples
 
 HERE = Path(__file__).resolve().parent
 CONTENT = {  # file stem -> (caption, frames at the prior's 20 fps)
     "walk_prior": ("a person walks", 80),
-    "run_prior": ("a person runs", 57),
+    "run_prior": ("a person runs", min(80, DATA_FRAMES["run"])),
     "walk_turn_left_prior": ("a person walks and turns left", 80),
     "wave_right_hand_prior": ("a person waves the right hand", 80),
 }
@@ -90,8 +91,9 @@ def write_content_bank(per_content: int = 4, length: int = 80, seed: int = 0) ->
         "made_by": "python samples/make_samples.py --content-bank: transfer.content_bank.make_content_bank "
                    f"with the shipped denoiser.safetensors, seed {seed}",
         "text_to_motion": asdict(settings),
-        "contents": f"{per_content} samples x 10 Bandai-2 contents ({n} clips), {length} frames each, normalised "
-                    "features, float16",
+        "contents": f"{per_content} samples x 10 Bandai-2 contents ({n} clips), each as long as the prior's training "
+                    f"clips of its content (transfer.content_bank.DATA_FRAMES), at most {length} frames, zero-padded to "
+                    f"{length}; normalised features, float16",
         "licence": "CC BY-NC 4.0, inherited from the prior's Bandai-Namco training data",
         "machine": "2 CPU cores",
         "seconds": round(time.time() - start, 1),

@@ -18,6 +18,13 @@ from motioncore.files import atomic_output
 from transfer.captions import BANDAI2_CONTENTS, content_caption
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
+# The median length in frames (20 fps) of the prior's neutral training clips of each content (the dataset cache's
+# Bandai-2 train split, unmirrored; docs/RESULTS.md, "The content bank as long as the data's clips"): text-to-motion
+# draws no content longer than the prior saw it (a run drawn at 80 frames lifts its feet 29.5 cm, at 57 39 cm).
+DATA_FRAMES = {"raise-up-both-hands": 38, "raise-up-left-hand": 38, "raise-up-right-hand": 40, "run": 57, "walk": 174,
+               "walk-turn-left": 106, "walk-turn-right": 110, "wave-both-hands": 135, "wave-left-hand": 136,
+               "wave-right-hand": 141}
+
 
 @dataclass
 class BankRecord:
@@ -49,13 +56,17 @@ class ContentBank:
 def make_content_bank(models, out_path: Path, per_content: int = 4, length: int = 80, seed: int = 0,
                       settings: TextToMotion = TEXT_TO_MOTION) -> int:
     """Sample ``per_content`` neutral clips for each Bandai-2 content with the prior of ``models``
-    (:class:`transfer.bundle.MethodBundle`, on its device) as ``settings`` say; returns the number written."""
+    (:class:`transfer.bundle.MethodBundle`, on its device) as ``settings`` say, each ``length`` frames or, where the
+    prior's training clips of that content are shorter (:data:`DATA_FRAMES`), as long as those (zero-padded to
+    ``length`` in the file, their records say how long); returns the number written."""
     gen = torch.Generator().manual_seed(seed)
     feats, records = [], []
     for content in BANDAI2_CONTENTS:
+        frames = min(length, DATA_FRAMES.get(content, length))
         text = models.text_encoder.encode([content_caption(content)] * per_content)
-        feats.append(models.text_to_motion(text, length, gen, settings))
-        records += [{"caption": content_caption(content), "content": content, "style": "normal", "length": length}] * per_content
+        drawn = models.text_to_motion(text, frames, gen, settings)
+        feats.append(torch.nn.functional.pad(drawn, (0, 0, 0, length - frames)))
+        records += [{"caption": content_caption(content), "content": content, "style": "normal", "length": frames}] * per_content
     with atomic_output(out_path, ".tmp") as tmp:
         save_file({"features": torch.cat(feats).to("cpu", torch.float16).contiguous()}, str(tmp),
                   metadata={"records": json.dumps(records), "about": "samples of the video2style prior (project-made)"})
