@@ -55,6 +55,9 @@ def test_text_to_motion_draws_with_the_settings_and_the_guide_only_when_asked():
     guided = bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3), TextToMotion(steps=4, guidance=2.0))
     assert guided.shape == (2, 12, FEATURES.dim) and not torch.equal(guided, plain)
     assert TEXT_TO_MOTION.contact_rate > 0 and TEXT_TO_MOTION.contact_iterations > 0  # the shipped draw is guided
+    with pytest.raises(ValueError, match="needs the bundle's feature mean and std"):
+        MethodBundle(bundle.prior).text_to_motion(text, 12)
+    assert MethodBundle(bundle.prior).text_to_motion(text, 12, settings=off).shape == (2, 12, FEATURES.dim)
     for bad in ({"steps": 0}, {"guidance": -1.0}, {"contact_rate": -0.1}, {"contact_iterations": -1}):
         with pytest.raises(ValueError, match="TextToMotion: expected"):
             TextToMotion(**bad)

@@ -52,6 +52,9 @@ class MethodBundle:
 
         guide = None
         if settings.contact_rate > 0 and settings.contact_iterations > 0:
+            if self.mean is None or self.std is None:
+                raise ValueError("text_to_motion: the planted-feet guide needs the bundle's feature mean and std; "
+                                 "got a bundle without them (settings with contact_rate=0 draw without the guide)")
             guide = contact_guide(self.mean, self.std, settings.contact_rate, settings.contact_iterations)
         return generate(self.prior, self.scheduler, text, length, settings.steps, settings.guidance, generator, guide)
 
