@@ -237,3 +237,31 @@ def test_fk_weight_is_a_stage_a_finished_run_may_resume_with_and_its_log_gains_t
                           progress=False)
     assert trainer.step == 6 and trainer.config.lr == 5e-4 and trainer.config.decay_start == 6
     assert trainer.opt.param_groups[0]["lr"] == pytest.approx(5e-4)
+
+
+def test_derived_positions_are_what_the_rotation_channels_place_and_a_stage_may_turn_them_on(tmp_path):
+    from motioncore.representation import FEATURES, positions_from_rotations
+    from transfer.denoiser import Denoiser, DenoiserConfig
+
+    g = torch.Generator().manual_seed(0)
+    mean, std = torch.randn(FEATURES.dim, generator=g) * 0.1, torch.rand(FEATURES.dim, generator=g) + 0.5
+    model = Denoiser(DenoiserConfig(width=32, layers=1, heads=2, ff=64, dropout=0.0, derive_positions=True)).eval()
+    x, t = torch.randn(2, 12, FEATURES.dim, generator=g), torch.tensor([10, 500])
+    with pytest.raises(RuntimeError, match="set_normalization"):
+        model(x, t)
+    out = model.set_normalization(mean, std)(x, t)
+    raw = out * std + mean
+    implied = positions_from_rotations(raw).flatten(-2)
+    assert torch.allclose(raw[..., FEATURES.positions], implied, atol=1e-5)  # the two channel sets agree
+    # a finished run may resume as a new stage with derived positions; the exported prior loads with them
+    cache, out_dir = _cache(tmp_path), tmp_path / "run"
+    train_prior(cache, out_dir, PriorTrainConfig(**TINY), max_minutes=5, max_steps=2, explicit=dict(TINY), progress=False)
+    stage = {"derive_positions": True}
+    trainer = train_prior(cache, out_dir, PriorTrainConfig(**stage), max_minutes=5, max_steps=4, explicit=stage,
+                          progress=False)
+    assert trainer.step == 4 and trainer.model.config.derive_positions and trainer.ema.normalization_set
+    prior, p_mean, p_std = load_prior(out_dir / "denoiser.safetensors")
+    assert prior.config.derive_positions and prior.normalization_set
+    y = prior(torch.randn(1, 24, FEATURES.dim), torch.tensor([100]))
+    assert torch.allclose((y * p_std + p_mean)[..., FEATURES.positions],
+                          positions_from_rotations(y * p_std + p_mean).flatten(-2), atol=1e-5)

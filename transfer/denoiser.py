@@ -8,7 +8,7 @@ import torch
 from safetensors.torch import load_file
 from torch import nn
 
-from motioncore.representation import FEATURES
+from motioncore.representation import FEATURES, positions_from_rotations
 from transfer.checkpoints import load_config
 from transfer.layers import Block, MotionEmbedding, sinusoidal
 
@@ -23,6 +23,9 @@ class DenoiserConfig:
     ff: int = 512
     dropout: float = 0.1
     num_train_steps: int = 1000
+    derive_positions: bool = False  # x0's joint-position channels are the joints its rotation channels and root height
+    # place (motioncore.representation.positions_from_rotations), not predicted: the two channel sets cannot disagree
+    # (needs the features' normalisation, :meth:`Denoiser.set_normalization`; docs/RESULTS.md, "Derived positions")
 
 
 class Denoiser(nn.Module):
@@ -30,7 +33,8 @@ class Denoiser(nn.Module):
 
     The step and text embeddings are summed into one condition token placed before the motion
     tokens. ``text=None`` (or rows of ``drop`` set True) is the unconditional model used for
-    classifier-free guidance.
+    classifier-free guidance. With ``config.derive_positions`` the output's joint-position channels are derived from
+    its rotation channels (the canonical layout, :data:`motioncore.representation.FEATURES`).
     """
 
     def __init__(self, config: DenoiserConfig):
@@ -42,6 +46,34 @@ class Denoiser(nn.Module):
         self.blocks = nn.ModuleList([Block(c.width, c.heads, c.ff, c.dropout) for _ in range(c.layers)])
         self.norm = nn.LayerNorm(c.width)
         self.out = nn.Linear(c.width, c.feature_dim)
+        if c.derive_positions:
+            if c.feature_dim != FEATURES.dim:
+                raise ValueError(f"Denoiser: derive_positions expected feature_dim {FEATURES.dim}, got {c.feature_dim}")
+            # the features' normalisation, set from the training data (not saved with the weights, which keep it beside)
+            self.register_buffer("feature_mean", torch.zeros(c.feature_dim), persistent=False)
+            self.register_buffer("feature_std", torch.ones(c.feature_dim), persistent=False)
+            self.normalization_set = False
+
+    def set_normalization(self, mean: torch.Tensor, std: torch.Tensor) -> Denoiser:
+        """The features' mean and std ``(D,)`` that :attr:`DenoiserConfig.derive_positions` needs; returns self."""
+        if mean.shape != (self.config.feature_dim,) or std.shape != (self.config.feature_dim,):
+            raise ValueError(f"set_normalization: expected mean, std ({self.config.feature_dim},), got "
+                             f"{tuple(mean.shape)}, {tuple(std.shape)}")
+        if self.config.derive_positions:
+            self.feature_mean.copy_(mean)
+            self.feature_std.copy_(std)
+            self.normalization_set = True
+        return self
+
+    def derived(self, x0: torch.Tensor) -> torch.Tensor:
+        """``x0 (B, T, D)`` (normalised) with its joint-position channels replaced by the joints its rotation channels
+        and root height place."""
+        if not self.normalization_set:
+            raise RuntimeError("Denoiser: derive_positions needs the features' normalisation (set_normalization) first")
+        mean, std, sl = self.feature_mean, self.feature_std, FEATURES.positions
+        raw = x0.float() * std + mean
+        pos = (positions_from_rotations(raw).flatten(-2) - mean[sl]) / std[sl]
+        return torch.cat([x0[..., :sl.start], pos.to(x0.dtype), x0[..., sl.stop:]], dim=-1)
 
     def forward(self, x_t, t, text=None, valid=None, drop=None):
         b, _, d = x_t.shape
@@ -59,7 +91,8 @@ class Denoiser(nn.Module):
             full_valid = torch.cat([torch.ones(b, 1, dtype=torch.bool, device=x_t.device), valid], dim=1)
         for blk in self.blocks:
             h = blk(h, full_valid)
-        return self.out(self.norm(h[:, 1:]))
+        x0 = self.out(self.norm(h[:, 1:]))
+        return self.derived(x0) if self.config.derive_positions else x0
 
 
 def load_denoiser(path: Path) -> tuple[Denoiser, dict[str, torch.Tensor]]:
@@ -69,4 +102,9 @@ def load_denoiser(path: Path) -> tuple[Denoiser, dict[str, torch.Tensor]]:
     tensors = load_file(str(path))
     own = set(model.state_dict())
     model.load_state_dict({k: v for k, v in tensors.items() if k in own})
-    return model.eval(), {k: v for k, v in tensors.items() if k not in own}
+    extra = {k: v for k, v in tensors.items() if k not in own}
+    if config.derive_positions:
+        if "norm.mean" not in extra or "norm.std" not in extra:
+            raise ValueError(f"{path}: a denoiser with derive_positions needs norm.mean and norm.std beside its weights")
+        model.set_normalization(extra["norm.mean"], extra["norm.std"])
+    return model.eval(), extra

@@ -51,11 +51,15 @@ class PriorTrainConfig:
     # weight of the foot-contact term (:func:`contact_loss`): how far the feet the model says are planted move over the
     # ground as its rotations and root velocity place them, in (cm/frame)^2 (MDM's term)
     contact_weight: float = 0.0
+    # the model's joint-position channels derived from its rotation channels (DenoiserConfig.derive_positions); a
+    # stage may turn it on: the weights are the same, the output's position channels are computed instead
+    derive_positions: bool = False
 
     # fields a run may change when it resumes (a new stage of the same run: its precision, FK or contact weight, or a new
     # learning-rate schedule from where it stands, e.g. a higher rate that decays again); any other given setting
     # that differs from the checkpoint's is refused
-    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "contact_weight", "lr", "decay_start", "decay_steps", "lr_final")
+    STAGE_FIELDS: ClassVar[tuple[str, ...]] = ("precision", "fk_weight", "contact_weight", "lr", "decay_start", "decay_steps",
+                                               "lr_final", "derive_positions")
 
 
 def caption_embeddings(dataset: MotionDataset) -> torch.Tensor:
@@ -233,8 +237,9 @@ def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_min
     torch.manual_seed(config.seed)
     data = MotionDataset(data_dir, "train", exclude_styles=tuple(config.exclude_styles))
     text = caption_embeddings(data).to(device)
-    model = Denoiser(DenoiserConfig(width=config.width, layers=config.layers, heads=config.heads, ff=config.ff, dropout=config.dropout))
-    model.to(device)
+    model = Denoiser(DenoiserConfig(width=config.width, layers=config.layers, heads=config.heads, ff=config.ff,
+                                    dropout=config.dropout, derive_positions=config.derive_positions))
+    model.set_normalization(data.mean, data.std).to(device)
     trainer = Trainer(model, config, out_dir, lr=config.lr, warmup=config.warmup, ema=config.ema,
                       decay=(config.decay_start, config.decay_steps, config.lr_final))
     trainer.resume(explicit or {})

@@ -855,6 +855,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--contact-weight", dest="contact_weight", type=_non_negative, default=None,
                    help="weight of the foot-contact term (how far the feet the model says are planted move over the "
                         "ground, (cm/frame)^2, as MDM's) (default: 0; a resumed run may change it)")
+    t.add_argument("--derive-positions", dest="derive_positions", action="store_const", const=True, default=None,
+                   help="derive the output's joint-position channels from its rotation channels instead of predicting "
+                        "them (a resumed run may turn it on)")
     t.add_argument("--val-every", dest="val_every", type=int, default=None,
                    help="steps between validation losses, logged to OUT/val.csv (default: 250; 0: none)")
     _add_exclude_styles(t)
