@@ -127,14 +127,7 @@ def main() -> None:
     ap.add_argument("--split", default="test")
     ap.add_argument("--previews", type=Path)
     ap.add_argument("--threads", type=int, default=2)
-    shipped = TEXT_TO_MOTION
-    ap.add_argument("--steps", type=int, default=shipped.steps, help=f"DDIM steps (default: {shipped.steps})")
-    ap.add_argument("--guidance", type=float, default=shipped.guidance,
-                    help=f"classifier-free guidance of the samples (default: {shipped.guidance})")
-    ap.add_argument("--contact-rate", type=float, default=shipped.contact_rate,
-                    help=f"the planted-feet guide's step (default: {shipped.contact_rate}; 0: off)")
-    ap.add_argument("--contact-iterations", type=int, default=shipped.contact_iterations,
-                    help=f"the planted-feet guide's steps per x0 prediction (default: {shipped.contact_iterations})")
+    TextToMotion.add_options(ap)
     ap.add_argument("--json", type=Path)
     ap.add_argument("--prior", type=Path, help="a prior's weights to measure instead of the shipped one")
     ap.add_argument("--encoder", type=Path, help="a motion encoder's weights instead of the shipped one")
@@ -154,7 +147,7 @@ def main() -> None:
     ret = retrieval(m.motion_encoder, m.text_encoder, data)
     for k, v in ret.items():
         print(f"{k:22s} {v if k == 'clips' else f'{100 * v:.1f} %'}")
-    settings = TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+    settings = TextToMotion.from_options(args)
     q = sample_quality(m, data, args.previews, settings=settings, classifier=load_classifier(default_weights("content")))
     for k, v in q.items():
         print(f"{k:22s} {v:.4f}" if isinstance(v, float) else f"{k:22s} {v}")

@@ -51,16 +51,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("real", nargs="*", type=Path, help="BVH files of real walks to compare with")
     ap.add_argument("--seeds", type=int, default=8)
-    from transfer.sampling import TEXT_TO_MOTION, TextToMotion
+    from transfer.sampling import TextToMotion
 
-    shipped = TEXT_TO_MOTION
-    ap.add_argument("--steps", type=int, default=shipped.steps, help=f"DDIM steps (default: {shipped.steps})")
-    ap.add_argument("--guidance", type=float, default=shipped.guidance,
-                    help=f"classifier-free guidance (default: {shipped.guidance})")
-    ap.add_argument("--contact-rate", type=float, default=shipped.contact_rate,
-                    help=f"the planted-feet guide's step (default: {shipped.contact_rate}; 0: off)")
-    ap.add_argument("--contact-iterations", type=int, default=shipped.contact_iterations,
-                    help=f"the planted-feet guide's steps per x0 prediction (default: {shipped.contact_iterations})")
+    TextToMotion.add_options(ap)
     ap.add_argument("--dataset", action="store_true", help="also the training clips of the dataset cache")
     ap.add_argument("--frames", type=int, default=80, help="sample length (default: 80, the prior's training window)")
     ap.add_argument("--data-length", action="store_true", help="sample each caption as long as its neutral training "
@@ -78,7 +71,7 @@ def main() -> None:
     from video2style.pipeline import read_clip
 
     m = MethodBundle.from_pretrained((args.prior, weights_path(ENCODER_FILE))) if args.prior else load_models()
-    settings = TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+    settings = TextToMotion.from_options(args)
     print(f"prior: {m.prior_path}; {settings}")
     text = m.text_encoder.encode(list(CAPTIONS))
     lengths = dict.fromkeys(CAPTIONS, args.frames)

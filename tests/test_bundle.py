@@ -58,6 +58,12 @@ def test_text_to_motion_draws_with_the_settings_and_the_guide_only_when_asked():
     with pytest.raises(ValueError, match="needs the bundle's feature mean and std"):
         MethodBundle(bundle.prior).text_to_motion(text, 12)
     assert MethodBundle(bundle.prior).text_to_motion(text, 12, settings=off).shape == (2, 12, FEATURES.dim)
+    import argparse
+
+    ap = argparse.ArgumentParser()
+    TextToMotion.add_options(ap)  # the benchmarks' flags: the project's settings unless given
+    assert TextToMotion.from_options(ap.parse_args([])) == TEXT_TO_MOTION
+    assert TextToMotion.from_options(ap.parse_args(["--contact-rate", "0"])).contact_rate == 0.0
     for bad in ({"steps": 0}, {"guidance": -1.0}, {"contact_rate": -0.1}, {"contact_iterations": -1}):
         with pytest.raises(ValueError, match="TextToMotion: expected"):
             TextToMotion(**bad)

@@ -43,6 +43,24 @@ class TextToMotion:
             if value < low:
                 raise ValueError(f"TextToMotion: expected {name} >= {low}, got {value}")
 
+    @staticmethod
+    def add_options(parser) -> None:
+        """``--steps``, ``--guidance``, ``--contact-rate``, ``--contact-iterations`` on an argparse ``parser``,
+        defaulting to the project's settings (:data:`TEXT_TO_MOTION`); :meth:`from_options` reads them back."""
+        d = TEXT_TO_MOTION
+        parser.add_argument("--steps", type=int, default=d.steps, help=f"DDIM steps (default: {d.steps})")
+        parser.add_argument("--guidance", type=float, default=d.guidance,
+                            help=f"classifier-free guidance (default: {d.guidance})")
+        parser.add_argument("--contact-rate", type=float, default=d.contact_rate,
+                            help=f"the planted-feet guide's step (default: {d.contact_rate}; 0: off)")
+        parser.add_argument("--contact-iterations", type=int, default=d.contact_iterations,
+                            help=f"the planted-feet guide's steps per x0 prediction (default: {d.contact_iterations})")
+
+    @staticmethod
+    def from_options(args) -> TextToMotion:
+        """The settings :meth:`add_options`' flags give (parsed ``args``)."""
+        return TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+
 
 TEXT_TO_MOTION = TextToMotion()  # the project's text-to-motion settings (the content bank, the demo's clips)
 
