@@ -1,7 +1,7 @@
 """Quality of the shipped prior and motion encoder on the Bandai-2 test split (issue 4's evidence).
 
     python benchmarks/eval_prior.py [--data cache/dataset] [--previews prior_previews/] [--threads 2] [--prior W] [--encoder W]
-        [--steps 50] [--guidance 2.0] [--contact-rate 0.02] [--contact-iterations 2]
+        [--steps 50] [--guidance 2.0] [--contact-rate 0.02] [--contact-iterations 2] [--no-derive-positions]
 
 Samples are drawn with the project's text-to-motion settings (``transfer.sampling.TextToMotion``) unless the options
 say otherwise (``--contact-rate 0``: without the planted-feet guide).

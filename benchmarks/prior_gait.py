@@ -1,12 +1,13 @@
 """How the shipped prior's text-to-motion walks step, against real walks: foot skating and ankle lift.
 
     python benchmarks/prior_gait.py [--seeds 8] [--steps 50] [--guidance 2.0] [--contact-rate 0.02]
-        [--contact-iterations 2] [--frames 80] [--data-length] [--dataset] [--prior W] [REAL.bvh ...]
+        [--contact-iterations 2] [--no-derive-positions] [--frames 80] [--data-length] [--dataset] [--prior W] [REAL.bvh ...]
 
 For each caption and seed, one 80-frame sample of the prior (as ``video2style.pipeline.prior_samples``: by
 default the project's ``transfer.sampling.TextToMotion`` settings; ``--contact-rate 0``, the draw without the
 planted-feet guide) is measured twice: decoded from its rotation channels (``representation.decode``,
-what the pipeline uses) and from its position channels (``representation.decode_positions``); the BVH files given (e.g. ../shared/data/xia_test/neutral_*.bvh)
+what the pipeline uses) and from its position channels (``representation.decode_positions``; the project's settings
+derive those from the rotation channels, so the two agree: ``--no-derive-positions`` shows the model's own); the BVH files given (e.g. ../shared/data/xia_test/neutral_*.bvh)
 are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
 ("normal" style, unmirrored) training clips of each of those actions in the dataset cache. Columns: the foot-skating ratio of ``evaluation.metrics`` (frames where a foot
 is within 3 cm of its lowest point and moves faster than 0.5 m/s) and the ankle lift (the smaller of the

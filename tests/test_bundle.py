@@ -49,13 +49,22 @@ def test_text_to_motion_draws_with_the_settings_and_the_guide_only_when_asked():
     g = torch.Generator().manual_seed(1)
     bundle = MethodBundle(tiny_denoiser(), torch.randn(FEATURES.dim, generator=g) * 0.1, torch.rand(FEATURES.dim, generator=g) + 0.5)
     text = torch.randn(2, bundle.prior.config.text_dim, generator=g)
-    off = TextToMotion(steps=4, guidance=2.0, contact_rate=0.0)
+    off = TextToMotion(steps=4, guidance=2.0, contact_rate=0.0, derive_positions=False)
     plain = generate(bundle.prior, bundle.scheduler, text, 12, 4, 2.0, torch.Generator().manual_seed(3))
     assert torch.equal(bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3), off), plain)
     guided = bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3), TextToMotion(steps=4, guidance=2.0))
     assert guided.shape == (2, 12, FEATURES.dim) and not torch.equal(guided, plain)
     assert TEXT_TO_MOTION.contact_rate > 0 and TEXT_TO_MOTION.contact_iterations > 0  # the shipped draw is guided
-    with pytest.raises(ValueError, match="needs the bundle's feature mean and std"):
+    assert TEXT_TO_MOTION.derive_positions
+    from transfer.denoiser import derive_position_channels
+
+    derived = bundle.text_to_motion(text, 12, torch.Generator().manual_seed(3),
+                                    TextToMotion(steps=4, guidance=2.0, contact_rate=0.0))
+    sl = FEATURES.positions  # the draw's position channels are where its rotation channels put the joints
+    assert not torch.allclose(plain[..., sl], derive_position_channels(plain, bundle.mean, bundle.std)[..., sl], atol=1e-2)
+    assert torch.allclose(derived, derive_position_channels(derived, bundle.mean, bundle.std), atol=1e-4)
+    assert torch.equal(derived[..., :sl.start], derive_position_channels(derived, bundle.mean, bundle.std)[..., :sl.start])
+    with pytest.raises(ValueError, match="need the bundle's feature mean and std"):
         MethodBundle(bundle.prior).text_to_motion(text, 12)
     assert MethodBundle(bundle.prior).text_to_motion(text, 12, settings=off).shape == (2, 12, FEATURES.dim)
     import argparse
@@ -64,6 +73,7 @@ def test_text_to_motion_draws_with_the_settings_and_the_guide_only_when_asked():
     TextToMotion.add_options(ap)  # the benchmarks' flags: the project's settings unless given
     assert TextToMotion.from_options(ap.parse_args([])) == TEXT_TO_MOTION
     assert TextToMotion.from_options(ap.parse_args(["--contact-rate", "0"])).contact_rate == 0.0
+    assert not TextToMotion.from_options(ap.parse_args(["--no-derive-positions"])).derive_positions
     for bad in ({"steps": 0}, {"guidance": -1.0}, {"contact_rate": -0.1}, {"contact_iterations": -1}):
         with pytest.raises(ValueError, match="TextToMotion: expected"):
             TextToMotion(**bad)

@@ -5,7 +5,7 @@ the feature normalisation they were trained with (:class:`MethodBundle`), loaded
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, partial
 from pathlib import Path
 
 import torch
@@ -48,15 +48,27 @@ class MethodBundle:
                        settings: TextToMotion = TEXT_TO_MOTION) -> torch.Tensor:
         """Text embeddings ``(B, E)`` -> normalised features ``(B, length, D)`` drawn by the prior from pure noise
         as ``settings`` say (:class:`transfer.sampling.TextToMotion`), on the prior's device."""
+        from transfer.denoiser import derive_position_channels
         from transfer.prior import contact_guide
 
-        guide = None
-        if settings.contact_rate > 0 and settings.contact_iterations > 0:
-            if self.mean is None or self.std is None:
-                raise ValueError("text_to_motion: the planted-feet guide needs the bundle's feature mean and std; "
-                                 "got a bundle without them (settings with contact_rate=0 draw without the guide)")
-            guide = contact_guide(self.mean, self.std, settings.contact_rate, settings.contact_iterations)
-        return generate(self.prior, self.scheduler, text, length, settings.steps, settings.guidance, generator, guide)
+        contact = settings.contact_rate > 0 and settings.contact_iterations > 0
+        if (contact or settings.derive_positions) and (self.mean is None or self.std is None):
+            raise ValueError("text_to_motion: the planted-feet guide and derived positions need the bundle's feature "
+                             "mean and std; got a bundle without them (TextToMotion(contact_rate=0, "
+                             "derive_positions=False) draws without them)")
+        guides = []
+        if contact:
+            guides.append(contact_guide(self.mean, self.std, settings.contact_rate, settings.contact_iterations))
+        if settings.derive_positions:
+            guides.append(partial(derive_position_channels, mean=self.mean, std=self.std))
+
+        def guide(x0: torch.Tensor) -> torch.Tensor:
+            for g in guides:
+                x0 = g(x0)
+            return x0
+
+        return generate(self.prior, self.scheduler, text, length, settings.steps, settings.guidance, generator,
+                        guide if guides else None)
 
     @classmethod
     def from_pretrained(cls, source: str | Path | tuple[Path, Path], device: str | torch.device = "cpu") -> MethodBundle:

@@ -68,13 +68,10 @@ class Denoiser(nn.Module):
 
     def derived(self, x0: torch.Tensor) -> torch.Tensor:
         """``x0 (B, T, D)`` (normalised) with its joint-position channels replaced by the joints its rotation channels
-        and root height place."""
+        and root height place (:func:`derive_position_channels`)."""
         if not self.normalization_set:
             raise RuntimeError("Denoiser: derive_positions needs the features' normalisation (set_normalization) first")
-        mean, std, sl = self.feature_mean, self.feature_std, FEATURES.positions
-        raw = x0.float() * std + mean
-        pos = (positions_from_rotations(raw).flatten(-2) - mean[sl]) / std[sl]
-        return torch.cat([x0[..., :sl.start], pos.to(x0.dtype), x0[..., sl.stop:]], dim=-1)
+        return derive_position_channels(x0, self.feature_mean, self.feature_std)
 
     def forward(self, x_t, t, text=None, valid=None, drop=None):
         b, _, d = x_t.shape
@@ -94,6 +91,20 @@ class Denoiser(nn.Module):
             h = blk(h, full_valid)
         x0 = self.out(self.norm(h[:, 1:]))
         return self.derived(x0) if self.config.derive_positions else x0
+
+
+def derive_position_channels(x0: torch.Tensor, mean: torch.Tensor, std: torch.Tensor) -> torch.Tensor:
+    """``x0 (*, T, D)``, features normalised with ``mean, std (D,)`` (the canonical layout,
+    :data:`motioncore.representation.FEATURES`) -> the same with the joint-position channels replaced by the joints
+    the rotation channels and root height place (:func:`motioncore.representation.positions_from_rotations`): the
+    two channel sets then agree. Differentiable; ``x0``'s dtype and device."""
+    if x0.dim() < 2 or x0.shape[-1] != FEATURES.dim or mean.shape != (FEATURES.dim,) or std.shape != (FEATURES.dim,):
+        raise ValueError(f"derive_position_channels: expected x0 (*, T, {FEATURES.dim}), mean and std ({FEATURES.dim},), "
+                         f"got {tuple(x0.shape)}, {tuple(mean.shape)}, {tuple(std.shape)}")
+    mean, std, sl = mean.to(x0.device, torch.float32), std.to(x0.device, torch.float32), FEATURES.positions
+    raw = x0.float() * std + mean
+    pos = (positions_from_rotations(raw).flatten(-2) - mean[sl]) / std[sl]
+    return torch.cat([x0[..., :sl.start], pos.to(x0.dtype), x0[..., sl.stop:]], dim=-1)
 
 
 def load_denoiser(path: Path) -> tuple[Denoiser, dict[str, torch.Tensor]]:

@@ -1,6 +1,7 @@
 """Sampling loops over a denoiser and a scheduler: text-to-motion, and editing from a given step."""
 from __future__ import annotations
 
+import argparse
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -30,12 +31,16 @@ class TextToMotion:
 
     ``contact_rate``, ``contact_iterations``: each x0 prediction takes that many gradient steps of that size down
     the planted feet's travel (:func:`transfer.prior.contact_guide`); 0 turns it off.
+    ``derive_positions``: then each x0 prediction's joint-position channels are replaced by the joints its rotation
+    channels place (:func:`transfer.denoiser.derive_position_channels`), so the two channel sets of a draw agree
+    (chosen in docs/RESULTS.md, "Position channels derived at sampling").
     """
 
     steps: int = 50  # DDIM steps
     guidance: float = 2.0  # classifier-free guidance scale
     contact_rate: float = 0.02
     contact_iterations: int = 2
+    derive_positions: bool = True
 
     def __post_init__(self):
         for name, value, low in (("steps", self.steps, 1), ("guidance", self.guidance, 0.0),
@@ -45,7 +50,7 @@ class TextToMotion:
 
     @staticmethod
     def add_options(parser) -> None:
-        """``--steps``, ``--guidance``, ``--contact-rate``, ``--contact-iterations`` on an argparse ``parser``,
+        """``--steps``, ``--guidance``, ``--contact-rate``, ``--contact-iterations``, ``--[no-]derive-positions`` on an argparse ``parser``,
         defaulting to the project's settings (:data:`TEXT_TO_MOTION`); :meth:`from_options` reads them back."""
         d = TEXT_TO_MOTION
         parser.add_argument("--steps", type=int, default=d.steps, help=f"DDIM steps (default: {d.steps})")
@@ -55,11 +60,14 @@ class TextToMotion:
                             help=f"the planted-feet guide's step (default: {d.contact_rate}; 0: off)")
         parser.add_argument("--contact-iterations", type=int, default=d.contact_iterations,
                             help=f"the planted-feet guide's steps per x0 prediction (default: {d.contact_iterations})")
+        parser.add_argument("--derive-positions", action=argparse.BooleanOptionalAction, default=d.derive_positions,
+                            help="derive each x0 prediction's position channels from its rotation channels "
+                                 f"(default: {d.derive_positions})")
 
     @staticmethod
     def from_options(args) -> TextToMotion:
         """The settings :meth:`add_options`' flags give (parsed ``args``)."""
-        return TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations)
+        return TextToMotion(args.steps, args.guidance, args.contact_rate, args.contact_iterations, args.derive_positions)
 
 
 TEXT_TO_MOTION = TextToMotion()  # the project's text-to-motion settings (the content bank, the demo's clips)
