@@ -121,6 +121,26 @@ def test_positions_from_rotations_equal_the_position_channels_of_encoded_clips()
         positions_from_rotations(feats[:, :-1])
 
 
+def test_derived_position_channels_leave_an_encoded_clip_as_it_was_and_replace_only_the_position_channels():
+    """Text-to-motion's derivation (:func:`transfer.denoiser.derive_position_channels`) on normalised features: a real
+    clip's channels already agree, so it comes back unchanged; a clip with moved position channels gets them back."""
+    from motioncore.representation import FEATURES, encode
+    from tests.helpers import random_motion
+    from transfer.denoiser import derive_position_channels
+
+    feats = encode(random_motion(seconds=2, seed=4))
+    g = torch.Generator().manual_seed(0)
+    mean, std = torch.randn(FEATURES.dim, generator=g) * 0.1, torch.rand(FEATURES.dim, generator=g) + 0.5
+    x0 = ((feats - mean) / std)[None]
+    assert torch.allclose(derive_position_channels(x0, mean, std), x0, atol=1e-3)
+    moved = x0.clone()
+    moved[..., FEATURES.positions] += 0.3
+    restored = derive_position_channels(moved, mean, std)
+    assert torch.allclose(restored, x0, atol=1e-3)
+    with pytest.raises(ValueError, match="expected x0"):
+        derive_position_channels(x0[..., :-1], mean, std)
+
+
 def test_fk_loss_is_zero_on_real_features_and_grows_with_a_bent_joint():
     from motioncore.representation import FEATURES, encode
     from tests.helpers import random_motion
