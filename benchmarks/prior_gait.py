@@ -7,8 +7,8 @@ For each caption and seed, one 80-frame sample of the prior (as ``video2style.pi
 default the project's ``transfer.sampling.TextToMotion`` settings; ``--contact-rate 0``, the draw without the
 planted-feet guide) is measured twice: decoded from its rotation channels (``representation.decode``,
 what the pipeline uses) and from its position channels (``representation.decode_positions``; the project's settings
-derive those from the rotation channels, so the two agree: ``--no-derive-positions`` shows the model's own); the BVH files given (e.g. ../shared/data/xia_test/neutral_*.bvh)
-are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
+derive those from the rotation channels, so the two agree: ``--no-derive-positions`` shows the model's own); the BVH
+files given (e.g. ../shared/data/xia_test/neutral_*.bvh) are measured the same way, and with ``--dataset`` the prior's own training data: the first 12 neutral
 ("normal" style, unmirrored) training clips of each of those actions in the dataset cache. Columns: the foot-skating ratio of ``evaluation.metrics`` (frames where a foot
 is within 3 cm of its lowest point and moves faster than 0.5 m/s) and the ankle lift (the smaller of the
 two ankles' highest minus lowest point over the clip). Real walking lifts the ankle 15-25 cm. ``--frames`` sets
