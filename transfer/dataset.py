@@ -67,7 +67,9 @@ def _iter_archive(path: Path):
                     yield member.name, f.read().decode("utf-8", errors="replace")
 
 
-def _canonical_features(text: str, name: str, fps: float) -> tuple[torch.Tensor, torch.Tensor]:
+def canonical_features(text: str, name: str, fps: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """Raw features ``(T, D)`` of a Bandai BVH's text on the canonical skeleton at ``fps`` (rolls conformed, on the
+    floor), and of its mirrored copy."""
     motion, _ = parse_bvh(text, name)
     motion = resample(motion, fps)
     rig = make_rig(motion.skeleton, motion, source=name)
@@ -113,7 +115,7 @@ def build_dataset(
             if m is None:
                 continue
             try:
-                f, fm = _canonical_features(text, member, fps)
+                f, fm = canonical_features(text, member, fps)
             except (BvhError, ValueError) as e:
                 failed.append(f"{member}: {e}")
                 continue
