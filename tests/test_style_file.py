@@ -129,7 +129,8 @@ def test_a_style_file_from_before_the_config_split_loads_and_learn_writes_the_sa
     added = {"lambda_stat_dir": 0.0, "posture": ApplyConfig.posture, "arm_gate": ApplyConfig.arm_gate,
              "content_keep": ApplyConfig.content_keep, "content_keep_top": ApplyConfig.content_keep_top,
              "still_guard": ApplyConfig.still_guard, "arm_travel": ApplyConfig.arm_travel, "posture_between": ApplyConfig.posture_between,
-             "pair_between": False, "guard_swing": ApplyConfig.guard_swing, "pair_windowed": False}  # (a file without a posture change applies none; one without pair_between was
+             "pair_between": False, "guard_swing": ApplyConfig.guard_swing, "pair_windowed": False,
+             "calibrate": False}  # (a file without a posture change applies none; one without pair_between was
     # learned before the pair was bounded: read so, whatever today's default)
     assert json.dumps(config_dict(learned, applied)) == json.dumps(renamed | added)
     partial = Style.load(_write(tmp_path / "partial.v2s", good[0] | {"config": {"decode": "rotations"}}, tensors))

@@ -201,7 +201,8 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
                          window: int = 80, overlap: int | None = None, posture_shift: torch.Tensor | None = None,
-                         example: torch.Tensor | None = None, report: dict | None = None) -> torch.Tensor:
+                         example: torch.Tensor | None = None, report: dict | None = None,
+                         gain: float = 1.0) -> torch.Tensor:
     """Stylise normalised content features ``(T, D)`` -> ``(T, D)`` with the style model ``model`` beside the prior
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
@@ -219,7 +220,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     ``report["content_share"]`` when a dict is given, and the smallest share of the difference's fast part that the
     still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) to ``report["still_share"]``. Runs on the models' device (``model``
     and the prior on one); the result is on ``x``'s."""
-    step, config = strength_settings(strength, learned, config)
+    step, config = strength_settings(strength, learned, config, gain)
     overlap = crossfade_overlap(window) if overlap is None else overlap
     device = model_device(model)
     out_device, x = x.device, x.to(device)
@@ -233,7 +234,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     out = crossfade(chunks, starts, x.shape[0])
     if report is not None and still:
         report["still_share"] = min(still)
-    amount = 1.0 if strength is None else 2.0 * strength  # of the example's posture change (strength 0.5: all)
+    amount = (1.0 if strength is None else 2.0 * strength) * gain  # of the example's posture change (0.5: all, calibrated)
     if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
         posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)), amount)
     if posture_shift is not None and config.posture > 0:
@@ -331,7 +332,8 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
     # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
     report: dict = {}
     out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
-                               neutral_text, posture_shift=style.posture_shift, example=style.example, report=report)
+                               neutral_text, posture_shift=style.posture_shift, example=style.example, report=report,
+                               gain=style.gain)
     out = bundle.denormalize(out, inplace=True)
     p0 = content_motion.global_positions()[:1].double()
     raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),

@@ -171,7 +171,30 @@ def learn_style(bundle, dataset, example: torch.Tensor, style_words: str, conten
         "rank": config.rank,
     }
     posture = posture_shift(example, pair).cpu()  # where the example holds each joint, against its pair
-    return Style(lora_state(model), meta, posture_shift=posture), {"pair": pair.cpu(), "history": history}
+    style = Style(lora_state(model), meta, posture_shift=posture)
+    if config.calibrate:
+        say("measuring how strongly the style shows")
+        meta["amount"] = _calibrate(bundle, model, style, dataset, example, pair, config, apply or ApplyConfig())
+    return style, {"pair": pair.cpu(), "history": history}
+
+
+def _calibrate(bundle, model, style: Style, dataset, example: torch.Tensor, pair: torch.Tensor, config: LearnConfig,
+               apply: ApplyConfig) -> dict:
+    """The style's calibrated amount (:func:`transfer.amount.calibrate_gain`): the example's distance from its pair,
+    and the gain that moves neutral clips of other actions as far at ``--strength 0.5``."""
+    from transfer.amount import calibrate_gain, calibration_clips, style_distance
+    from transfer.apply import apply_style_features
+
+    raw_example = bundle.denormalize(example.cpu()) if bundle.mean is not None else None
+    device = model_device(model)
+
+    def at_gain_one(clip: torch.Tensor) -> torch.Tensor:
+        return apply_style_features(bundle, model, clip.to(device), config, apply, 0.5, config.seed,
+                                    posture_shift=style.posture_shift, example=raw_example).cpu()
+
+    target = style_distance(example.cpu(), pair.cpu())
+    gain, reached = calibrate_gain(at_gain_one, target, calibration_clips(dataset))
+    return {"gain": round(gain, 4), "target": round(target, 4), "reached": round(reached, 4)}
 
 
 @torch.no_grad()

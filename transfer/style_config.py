@@ -50,6 +50,8 @@ class LearnConfig:
     pair_windowed: bool = True  # an example longer than ``window`` gets its pair drawn in ``window``-frame windows
     # crossfaded over a quarter of one, as apply draws: the prior, trained on 80-frame windows, draws longer motion
     # shuffling (docs/RESULTS.md "The neutral pair in windows"); False: drawn whole, as before 2026-12-06
+    calibrate: bool = True  # after learning, the gain that makes results on neutral clips of other actions differ from
+    # their content as much as the example differs from its pair (transfer.amount); False: gain 1, as before 2026-12-07
 
 
 @dataclass
@@ -111,10 +113,11 @@ CONFIG_RANGES = {
     "arm_gate": (float, 0.0, 2.0), "content_keep": (float, 0.0, 1.0),
     "content_keep_top": (bool, None, None), "still_guard": (bool, None, None), "arm_travel": (float, 0.0, 10.0), "posture_between": (bool, None, None),
     "pair_between": (bool, None, None), "guard_swing": (bool, None, None), "pair_windowed": (bool, None, None),
+    "calibrate": (bool, None, None),
 }
 # learning fields a style file written before they existed was learned without (their default since differs):
 # read so from a file that lacks them (:meth:`transfer.style_file.Style.configs`)
-LEARNED_WITHOUT = {"pair_between": False, "pair_windowed": False}
+LEARNED_WITHOUT = {"pair_between": False, "pair_windowed": False, "calibrate": False}
 # the names style files written before 2026-12 give these fields (a noise step and a number of DDIM steps differed
 # by one letter): read under the new names (:func:`current_names`), written under the new ones
 OLD_NAMES = {"pair_step": "pair_noise_step", "pair_steps": "pair_ddim_steps",
@@ -196,18 +199,22 @@ def strength_to_step(strength: float) -> int:
     return max(1, min(MAX_STEP, round(600 * strength)))
 
 
-def strength_settings(strength: float | None, learn: LearnConfig, apply: ApplyConfig) -> tuple[int, ApplyConfig]:
+def strength_settings(strength: float | None, learn: LearnConfig, apply: ApplyConfig,
+                      gain: float = 1.0) -> tuple[int, ApplyConfig]:
     """``--strength`` -> ``(K, apply config)`` for ``transfer.edit.stylize`` under the style's ``apply_mode``; the
-    one place a strength becomes settings. None: the style as learned (its K and scale).
+    one place a strength becomes settings. None: the style as learned (its K and scale). ``gain``: the style's
+    calibrated amount (:mod:`transfer.amount`), multiplying the difference mode's scale.
 
     regenerate: K = 600 * strength (0.5 -> 300, the paper's), the scale from the style's config;
     difference: K from the style's config, scale = 2 * strength * ``style_scale`` (0 -> the content unchanged,
     0.5 -> the learned difference, 1 -> twice it).
     """
     if strength is None:
+        if apply.apply_mode == "difference" and gain != 1.0:
+            return learn.transfer_noise_step, replace(apply, style_scale=gain * apply.style_scale)
         return learn.transfer_noise_step, apply
     if apply.apply_mode == "difference":
         check_strength(strength)
-        return learn.transfer_noise_step, replace(apply, style_scale=2.0 * strength * apply.style_scale)
+        return learn.transfer_noise_step, replace(apply, style_scale=2.0 * strength * gain * apply.style_scale)
     return strength_to_step(strength), apply
 

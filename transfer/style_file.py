@@ -55,6 +55,11 @@ class Style:
     posture_shift: torch.Tensor | None = None  # (C,): the example's time-mean change of the body channels against its
     # neutral pair, normalised (transfer.posture.match_posture); None in files learned before 2026-12-05
 
+    @property
+    def gain(self) -> float:
+        """The calibrated amount ``apply`` multiplies the style's change by (:mod:`transfer.amount`; 1: none)."""
+        return float(self.meta.get("amount", {}).get("gain", 1.0))
+
     def configs(self) -> tuple[LearnConfig, ApplyConfig]:
         """The configs the style was learned with (fields its file lacks: today's defaults, or how learning ran
         before they existed, :data:`transfer.style_config.LEARNED_WITHOUT`). A loaded file's config was validated by
@@ -179,6 +184,15 @@ def validate_meta(meta) -> dict:
     for key in ("iterations", "iterations_planned", "example_frames"):
         if key in meta:
             check_value(key, meta[key], int, 0, 10**7)
+    amount = meta.get("amount")
+    if amount is not None:
+        from transfer.amount import GAIN_RANGE
+
+        if not isinstance(amount, dict) or set(amount) - {"gain", "target", "reached"}:
+            raise ValueError("amount: expected an object with gain, target and reached")
+        check_value("amount.gain", amount.get("gain", 1.0), float, *GAIN_RANGE)
+        for key in ("target", "reached"):
+            check_value(f"amount.{key}", amount.get(key, 0.0), float, 0.0, 1e3)
     tempo = meta.get("tempo")
     if tempo is not None:
         check_value("tempo", tempo, float, 0.25, 4.0)

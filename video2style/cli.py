@@ -537,8 +537,19 @@ def cmd_train_classifier(args) -> None:
 
 
 def cmd_evaluate(args) -> None:
-    from video2style.evaluate import evaluate
+    from video2style.evaluate import evaluate, evaluate_dev_styles
 
+    if args.dev_styles is not None:
+        archives = [args.dev_styles / name for name in ("bandai1-unseen-dev-styles.tar.xz", "bandai1-seen-styles.tar.xz")]
+        missing = [str(a) for a in archives if not a.is_file()]
+        if missing:
+            raise CliError(f"evaluate --dev-styles: no {missing[0]}")
+        check_outputs([("-o", args.out), ("-o", args.out / "dev_styles.md"), ("-o", args.out / "dev_styles.json")],
+                      [("--dev-styles", a) for a in archives])
+        for line in evaluate_dev_styles(*archives, args.out, strength=0.5 if args.strengths is None else args.strengths[0],
+                                        seed=args.seed, style_cache=args.style_cache):
+            print(line)
+        return
     inputs = _data_inputs(args.data) + [("the --park-weights file", args.park_weights),
                                         ("the --unseen-models folder", args.unseen_models)]
     check_outputs([("-o", args.out)] + [("-o", args.out / name) for name in ("table.md", "rows.json", "tradeoff.png")], inputs)
@@ -937,6 +948,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "older name)")
     ev.add_argument("--seed", type=_style_option("seed"), default=0,
                     help="seed for example draws and noise (default: %(default)s)")
+    ev.add_argument("--dev-styles", type=Path, metavar="DIR",
+                    help="the second unseen-style protocol: the folder holding bandai1-unseen-dev-styles.tar.xz and "
+                         "bandai1-seen-styles.tar.xz (five Bandai-1 styles no model saw, each learned from its walk and "
+                         "applied to ten neutral actions; hand-feature judges); --strengths S: its first value")
     ev.add_argument("--unseen", action="store_true",
                     help="the unseen-style protocol: models trained without three styles (elderly, exhausted, feminine), "
                          "neutral content to those styles and, from the same models, to the others")

@@ -106,7 +106,8 @@ class OnTheFly:
         stored = None if self.store is None else Path(self.store) / f"{key}.v2s"
         if key not in self.shared and stored is not None and stored.is_file():
             learned = Style.load(stored)
-            self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"])
+            self.shared[key] = (style_model(self.m.prior, learned), learned.meta["seconds"], learned.meta["iterations"],
+                                learned.gain)
             self._keep_posture(style_example, learned)
         if key not in self.shared:
             t0 = time.time()
@@ -115,16 +116,17 @@ class OnTheFly:
                                      apply=self.config)
             if stored is not None:
                 learned.save(stored)
-            self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"])
+            self.shared[key] = (style_model(self.m.prior, learned), time.time() - t0, learned.meta["iterations"],
+                                learned.gain)
             self._keep_posture(style_example, learned)
             self.progress(f"learned {style_label!r} from a {content_label} example: {learned.meta['iterations']} iterations, "
                      f"{self.shared[key][1]:.0f} s")
-        model, seconds, iterations = self.shared[key]
+        model, seconds, iterations, gain = self.shared[key]
         if key not in self._seen:
             self._seen.add(key)
             self.learn_seconds.append(seconds)
             self.iterations.append(iterations)
-        return model
+        return model, gain
 
     def _neutral(self, content: torch.Tensor) -> torch.Tensor:
         from transfer.apply import neutral_caption, neutralize_features
@@ -141,10 +143,10 @@ class OnTheFly:
     def __call__(self, content_feats, style_example, style_label, content_label):
         from transfer.apply import apply_style_features
 
-        model = self._model(style_example, style_label)
+        model, gain = self._model(style_example, style_label)
         return apply_style_features(self.m, model, self._neutral(content_feats), self.learned, self.config,
                                     self.strength, self.seed, posture_shift=self._posture(style_example),
-                                    example=self.data.denormalize(style_example))
+                                    example=self.data.denormalize(style_example), gain=gain)
 
     def _keep_posture(self, style_example: torch.Tensor, learned) -> None:
         """A learned style's posture change (drawn while learning): :meth:`_posture` need not draw the pair again."""
@@ -360,3 +362,58 @@ def plot_tradeoff(rows: list[dict], path: Path, title: str = "") -> Path:
     finally:
         plt.close(fig)
     return path
+
+
+def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, strength: float = 0.5, seed: int = 0,
+                        calibrate: bool = True, style_cache: Path | None = None, progress=print) -> Iterator[str]:
+    """The second unseen-style protocol (:mod:`evaluation.dev_styles`): each of the five dev styles learned from
+    its walk as ``learn`` learns (the shipped models, content from the dataset cache or the bank), applied as
+    ``apply`` applies (:func:`transfer.apply.stylize_motion`) at ``strength`` to the neutral clip of each action;
+    writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate`` False: the
+    style as learned (gain 1, the ablation). ``style_cache``: a folder keeping the learned styles between runs."""
+    from evaluation.dev_styles import fit_judges, format_dev_table, read_archive, run_dev_protocol
+    from transfer.apply import read_motion, stylize_motion
+    from transfer.bundle import load_models
+    from transfer.learn import learn_style
+    from transfer.style_config import LearnConfig
+    from transfer.style_file import Style, style_model
+    from video2style.pipeline import content_source
+
+    t0 = time.time()
+    clips = read_archive(dev_archive) + read_archive(seen_archive)
+    judges = fit_judges(clips)
+    yield (f"judges fitted on {len(clips) - 5} real Bandai-1 clips: style {100 * judges.loo_style:.1f} %, action "
+           f"{100 * judges.loo_action:.1f} % leave-one-out")
+    m, data = load_models(), content_source(progress)
+    learned = LearnConfig(seed=seed, calibrate=calibrate)
+    styles: dict[str, tuple] = {}
+
+    def transfer(style, example, action, content):
+        if style not in styles:
+            key = "dev" + _key(example, style, asdict(learned))
+            path = None if style_cache is None else Path(style_cache) / f"{key}.v2s"
+            if path is not None and path.is_file():
+                st = Style.load(path)
+            else:
+                x = m.normalize(example)
+                st, _ = learn_style(m, data, x, style, read_motion(m.motion_encoder, m.text_encoder, x).content, learned)
+                st.example = example.clone()
+                if path is not None:
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    st.save(path)
+            styles[style] = (st, style_model(m.prior, st))
+            progress(f"  learned {style!r}: gain {st.gain:.2f}")
+        st, model = styles[style]
+        return encode(stylize_motion(m, st, model, decode(content), strength, seed)[0])
+
+    result = run_dev_protocol(transfer, clips, judges, progress=lambda s: progress(f"  {s}"))
+    identity = run_dev_protocol(lambda s, e, a, c: c, clips, judges)
+    title = (f"dev styles at --strength {strength:g}{'' if calibrate else ', uncalibrated'}, seed {seed}; "
+             f"{time.time() - t0:.0f} s")
+    table = format_dev_table(result, identity)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / "dev_styles.md", f"{title}\n\n{table}\n")
+    atomic_write_text(out_dir / "dev_styles.json", json.dumps(result, indent=1))
+    yield title
+    yield table

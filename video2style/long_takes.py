@@ -202,7 +202,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
 
     m = load_models(model_device(model))
     learned, config = style.configs()
-    step, config = strength_settings(strength, learned, config)
+    step, config = strength_settings(strength, learned, config, style.gain)
     head = take.canonical(0, min(n, 200))
     neutral_text, detected = None, None
     if neutralize != "never":  # the reading is of the first 8 s (read_motion)

@@ -249,6 +249,11 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     progress("[3/4] learning")
     style, _ = learn_style(m, dataset, example, style_words, text, config, progress=lambda s: progress(f"      {s}"),
                            show_bar=show_bar, apply=apply_config)
+    if "amount" in style.meta:
+        from transfer.amount import describe_amount
+
+        a = style.meta["amount"]
+        progress(f"      {describe_amount(a['gain'], a['target'], a['reached'])}")
     tempo = style_tempo(canonical, text, dataset, m)
     if tempo is not None:
         progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
