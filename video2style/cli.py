@@ -428,7 +428,7 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
 def _diffusion_runner(args, joint_map):
     from transfer.bundle import base_model_warning, load_models
     from transfer.style_file import Style, style_model
-    from transfer.tempo import resolve_tempo
+    from video2style.options import apply_options
     from video2style.pipeline import apply_file
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
@@ -436,26 +436,15 @@ def _diffusion_runner(args, joint_map):
     for flag in ("domain", "reference", "mix"):
         if getattr(args, flag) is not None:
             raise CliError(f"apply: --{flag} belongs to --method park")
-    _check_strength(args.strength)
+    options = apply_options(args)  # one line for a bad --strength or --tempo, before the style loads
     style = Style.load(args.style)
-    if args.tempo not in ("off", "auto"):
-        resolve_tempo(style, args.tempo)  # a bad number: one line before any work (before the models load)
     files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
-    return (lambda path, where: apply_file(style, model, path, where, args.strength, args.seed, args.neutralize,
-                                           joint_map, not args.no_preview, args.tempo)), files
-
-
-def _check_strength(strength: float) -> None:
-    from transfer.style_config import check_strength
-
-    try:
-        check_strength(strength)
-    except ValueError as e:
-        raise CliError(f"--{e}") from None
+    return (lambda path, where: apply_file(style, model, path, where, options.strength, options.seed, options.neutralize,
+                                           joint_map, options.preview, options.tempo)), files
 
 
 def _park_runner(args, joint_map):
@@ -553,20 +542,21 @@ def cmd_evaluate(args) -> None:
 
 def cmd_batch(args) -> None:
     from video2style.batch import run_batch
+    from video2style.options import apply_options
 
-    _check_strength(args.strength)
+    options = apply_options(args)  # the same options, checked the same way, as apply's
     _writable(args.output, "-o", is_dir=True)
     _free_space(args.output / "styles" / "style.v2s", STYLE_FILE_BYTES, "-o")  # room for at least one style
     if args.ray is not None:
         from video2style.batch_ray import run_batch_ray
 
-        report = run_batch_ray(args.videos, args.content, args.output, args.strength, seed=args.seed,
+        report = run_batch_ray(args.inputs, args.content, args.output, options=options,
                                address=None if args.ray == "local" else args.ray, workers=args.workers, device=args.device,
                                rotate=args.rotate)
     else:
         if args.workers is not None:
             raise CliError("batch: --workers goes with --ray")
-        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed, device=args.device,
+        report = run_batch(args.inputs, args.content, args.output, options=options, device=args.device,
                            rotate=args.rotate)
     print(report.table())
     print(f"report: {args.output / 'report.json'}")
@@ -782,16 +772,6 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--method", choices=["diffusion", "park", "stgcn"], default="diffusion",
                     help="diffusion: a learned style file (default); park: Park et al. 2021, style from a domain "
                          "(stgcn: its older name)")
-    ap.add_argument("--strength", type=float, default=0.5,
-                    help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
-                         "at some cost to the content (docs/RESULTS.md has the trade-off curve)")
-    ap.add_argument("--tempo", default="off",
-                    help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
-                         "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
-    ap.add_argument("--seed", type=_style_option("seed"), default=0,
-                    help="noise seed: the same seed gives the same result (default: %(default)s)")
-    ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
-                    help="neutralise styled content first (auto: when the motion encoder recognises a style)")
     ap.add_argument("--domain", help="park: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
     ap.add_argument("--variants", type=int, default=1, help="park: outputs from this many noise draws (seeds seed, seed+1, ...)")
     ap.add_argument("--reference", type=Path, help="park: take the style code from this clip (read as --domain)")
@@ -799,9 +779,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mix-steps", type=int, default=5, help="park: interpolation outputs, ends included (default: %(default)s)")
     ap.add_argument("--park-weights", "--weights", dest="park_weights", type=Path,
                     help="park: its weights (default: the shipped park_stylizer.safetensors; --weights: the older name)")
-    ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
-    ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
-    add_clip_format_arguments(ap, formats=True)
+    from video2style.options import add_apply_options
+
+    add_apply_options(ap)  # the options batch takes too, from this one definition
     _add_device(ap)
     ap.set_defaults(func=cmd_apply)
 
@@ -819,14 +799,22 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     po.set_defaults(func=cmd_pose)
 
-    b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
-                       epilog="example: video2style batch videos/ --content library/ -o results/")
-    b.add_argument("videos", type=Path, help="folder of videos")
+    b = sub.add_parser("batch", help="learn (or reuse) each style and apply it to a BVH/FBX library (resumable)",
+                       epilog="examples:\n  video2style batch videos/ --content library/ -o results/\n"
+                              "  video2style batch old.v2s strut.mp4 proud.bvh --content library/ -o results/ --tempo auto\n\n"
+                              "Style sources may be mixed: videos, BVH/FBX/GLB/glTF example clips and style files from\n"
+                              "`video2style learn` (used as they are, not learned again); a folder gives its videos and\n"
+                              "style files. The apply options mean what they mean for `video2style apply`.",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    b.add_argument("inputs", type=Path, nargs="+", metavar="STYLE",
+                   help="videos, example clips (.bvh, .fbx, .glb, .gltf), style files (.v2s), or folders of videos "
+                        "and style files")
     b.add_argument("--content", type=Path, required=True, help="folder of BVH (or FBX, GLB, glTF) clips, searched recursively; "
-                   "FBX/glTF results keep their format")
-    b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
-    b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
-    b.add_argument("--seed", type=_style_option("seed"), default=0, help="noise seed for apply (default: %(default)s)")
+                   "FBX/glTF results keep their format unless --format")
+    b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per style, index.html")
+    from video2style.options import add_apply_options
+
+    add_apply_options(b)  # apply's options, from its own definition
     b.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                    help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
                         "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")

@@ -1,0 +1,79 @@
+"""Issue 51: batch takes every apply option (one definition), reuses style files, and says what happened."""
+import argparse
+import json
+from pathlib import Path
+
+from tests.test_hardening import _library, fake_pipeline  # noqa: F401 - the fixture
+from video2style.cli import build_parser, main
+
+PARK_ONLY = {"--method", "--domain", "--variants", "--reference", "--mix", "--mix-steps", "--park-weights", "--weights"}
+
+
+def _commands():
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices["apply"], sub.choices["batch"]
+
+
+def _options(parser) -> dict:
+    return {a.option_strings[-1]: a for a in parser._actions if a.option_strings}
+
+
+def test_batch_has_every_apply_option_with_the_same_meaning():
+    apply, batch = _commands()
+    a, b = _options(apply), _options(batch)
+    shared = set(a) - PARK_ONLY
+    assert {"--strength", "--tempo", "--seed", "--neutralize", "--format", "--no-preview", "--joint-map"} <= shared
+    missing = sorted(shared - set(b))
+    assert not missing, f"batch lacks {missing}"
+    for name in shared - {"--output", "--help"}:  # -o: a folder in both, laid out per command
+        x, y = a[name], b[name]
+        assert (x.dest, x.default, x.choices, x.help, x.type, x.nargs, x.const) == \
+            (y.dest, y.default, y.choices, y.help, y.type, y.nargs, y.const), name
+
+
+def test_batch_passes_every_apply_option_to_apply(tmp_path, fake_pipeline):  # noqa: F811
+    videos, content = _library(tmp_path)
+    out = tmp_path / "out"
+    assert main(["batch", str(videos / "strut.mp4"), "--content", str(content), "-o", str(out), "--strength", "0.7",
+                 "--seed", "3", "--tempo", "0.8", "--neutralize", "never", "--no-preview"]) == 0
+    assert fake_pipeline["apply_args"] and set(fake_pipeline["apply_args"]) == {(0.7, 3, "never", None, False, "0.8")}
+
+
+def test_batch_refuses_a_bad_apply_option_in_one_line_before_any_work(tmp_path, fake_pipeline, capsys):  # noqa: F811
+    videos, content = _library(tmp_path)
+    assert main(["batch", str(videos), "--content", str(content), "-o", str(tmp_path / "out"), "--tempo", "9"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--tempo" in err and not fake_pipeline["learn"]
+
+
+def test_batch_reuses_style_files_and_takes_mixed_sources(tmp_path, fake_pipeline):  # noqa: F811
+    videos, content = _library(tmp_path)
+    mine = tmp_path / "styles_made" / "mine.v2s"
+    mine.parent.mkdir()
+    mine.write_text("style")  # what the fake loader takes for a style file
+    example = tmp_path / "proud.bvh"
+    example.write_text("clip")
+    out = tmp_path / "out"
+    assert main(["batch", str(mine), str(videos / "strut.mp4"), str(example), "--content", str(content),
+                 "-o", str(out)]) == 0
+    assert sorted(fake_pipeline["learn"]) == ["proud.bvh", "strut.mp4"]  # the style file is not learned again
+    assert (out / "mine" / "run.bvh").is_file() and not (out / "styles" / "mine.v2s").exists()
+    assert (out / "proud" / "a" / "walk.bvh").is_file() and (out / "styles" / "proud.v2s").is_file()
+    rows = json.loads((out / "report.json").read_text())
+    assert {r["video"] for r in rows} == {"mine.v2s", "strut.mp4", "proud.bvh"}
+    # a folder gives its videos and its style files
+    (videos / "kept.v2s").write_text("style")
+    fake_pipeline["learn"].clear()
+    assert main(["batch", str(videos), "--content", str(content), "-o", str(tmp_path / "out2")]) == 0
+    assert sorted(fake_pipeline["learn"]) == ["old.mov", "old.mp4", "strut.mp4"]
+    assert (tmp_path / "out2" / "kept" / "run.bvh").is_file()
+
+
+def test_a_style_file_that_does_not_load_is_one_failed_item(tmp_path, fake_pipeline):  # noqa: F811
+    videos, content = _library(tmp_path)
+    bad = tmp_path / "bad.v2s"
+    bad.write_bytes(b"\x00garbage")
+    assert main(["batch", str(bad), "--content", str(content), "-o", str(tmp_path / "out")]) == 1
+    rows = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert rows[0]["status"] == "failed" and rows[0]["error"].startswith("style:") and not fake_pipeline["learn"]
+    assert Path(bad).read_bytes() == b"\x00garbage"  # never learned over
