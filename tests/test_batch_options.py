@@ -3,6 +3,8 @@ import argparse
 import json
 from pathlib import Path
 
+import pytest
+
 from tests.test_hardening import _library, fake_pipeline  # noqa: F401 - the fixture
 from video2style.cli import build_parser, main
 
@@ -77,3 +79,72 @@ def test_a_style_file_that_does_not_load_is_one_failed_item(tmp_path, fake_pipel
     rows = json.loads((tmp_path / "out" / "report.json").read_text())
     assert rows[0]["status"] == "failed" and rows[0]["error"].startswith("style:") and not fake_pipeline["learn"]
     assert Path(bad).read_bytes() == b"\x00garbage"  # never learned over
+
+
+SAMPLES = Path(__file__).resolve().parents[1] / "samples"
+
+
+@pytest.fixture(scope="module")
+def quick_style(tmp_path_factory):
+    """A style learned in two iterations from a sample clip (partial: enough to apply)."""
+    import os
+
+    from transfer.style_config import LearnConfig
+    from video2style.pipeline import learn_file
+
+    where = tmp_path_factory.mktemp("style")
+    old = os.environ.get("VIDEO2STYLE_DATA")
+    os.environ["VIDEO2STYLE_DATA"] = str(where / "no-cache")  # the bundled content bank
+    try:
+        learn_file(SAMPLES / "walk_prior.bvh", where / "old.v2s", "old", None,
+                   LearnConfig(iterations=2, pair_ddim_steps=3), progress=lambda s: None, allow_partial=True)
+    finally:
+        if old is None:
+            os.environ.pop("VIDEO2STYLE_DATA")
+        else:
+            os.environ["VIDEO2STYLE_DATA"] = old
+    return where / "old.v2s"
+
+
+def _lines(text: str, start: str) -> list[str]:
+    return [ln.strip() for ln in text.splitlines() if ln.strip().startswith(start)]
+
+
+def test_apply_says_in_one_short_plain_line_per_clip_what_happened_and_writes_the_page(quick_style, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["apply", str(quick_style), str(SAMPLES / "run_prior.bvh"), "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    [line] = _lines(printed, "[1/1]")
+    said = line.split(".bvh: ", 1)[1]  # after the paths
+    assert len(said) < 200 and "P(content)" not in line and "similarity" not in line, line
+    # the file's own frames and seconds (the sample: 85 frames at 30 fps), not the canonical frames nor a run time
+    assert "85 frames at 30 fps, 2.83 s" in line and "style shows" in line and "feet slide in" in line
+    row = json.loads((out / "report.json").read_text())[0]
+    assert row["file_frames"] == 85 and row["change"]["joints_cm"] > 0 and row["summary"] in line
+    assert {"skating_content", "skating_after", "detected"} <= set(row)
+    index = (out / "index.html").read_text()  # the page batch and demo write, with the clip's player
+    assert "run_prior_player.js" in index and 'class="player"' in index and "index.html" in printed
+
+
+def test_batch_prints_a_line_per_clip_and_its_report_holds_the_numbers(quick_style, tmp_path, capsys):
+    content = tmp_path / "content"
+    content.mkdir()
+    (content / "run.bvh").write_text((SAMPLES / "run_prior.bvh").read_text())
+    out = tmp_path / "out"
+    assert main(["batch", str(quick_style), "--content", str(content), "-o", str(out), "--no-preview"]) == 0
+    [line] = _lines(capsys.readouterr().out, "[1/1]")
+    assert "style shows" in line and "feet slide in" in line and "P(content)" not in line
+    [row] = json.loads((out / "report.json").read_text())
+    assert row["status"] == "done" and row["change"]["joints_cm"] > 0 and row["file_frames"] == 85
+    assert 0 <= row["skating_after"] <= 1 and row["summary"] in line and not (out / "styles").exists()
+
+
+def test_the_line_names_the_guards_that_held_the_style_back():
+    from video2style.summary import clip_line
+
+    line = clip_line({"frames": 80, "file_frames": 119, "file_fps": 30.0, "skating_content": 0.0, "skating_after": 0.2,
+                      "still_share": 0.91, "arm_motion_share": 0.03, "content_share": 0.999, "neutralized": True,
+                      "change": {"joints_cm": 2.4, "most": "legs", "shows": "lightly"}})
+    assert line == ("119 frames at 30 fps, 3.97 s; style shows lightly (joints moved 2.4 cm on average, most in the "
+                    "legs); neutralised first; feet slide in 0% of frames before, 20% after; held back: still-pose "
+                    "guard kept 91% of the fast change; arms kept their own motion (3% of the style's)")

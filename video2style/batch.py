@@ -308,7 +308,7 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
         if row["status"] == "failed":
             progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {row['error']}")
         elif row["status"] == "done":
-            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {row['output']}")
+            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {row['output']}: {row['summary']}")
 
 
 _CONVERTERS: dict = {}
@@ -334,7 +334,8 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, op
     asked for) exist, else applied (tried ``retries`` more times on an error). The report row."""
     from motioncore.retarget import load_joint_map
     from video2style.interchange import in_format, output_suffix
-    from video2style.pipeline import apply_file, apply_notes
+    from video2style.pipeline import apply_file
+    from video2style.summary import clip_details
 
     joint_map = load_joint_map(options.joint_map) if options.joint_map else None
 
@@ -358,8 +359,9 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, op
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
             error = str(e)
             continue
+        details = {k: v for k, v in clip_details(info).items() if k not in ("input", "output", "preview", "player", "seconds")}
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
-                "preview": info.get("preview", ""), "player": info.get("player", ""), "notes": apply_notes(info)}
+                "preview": info.get("preview", ""), "player": info.get("player", ""), **details}
     return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1,
             "output": "", "preview": "", "player": ""}  # a failed item wrote nothing (pipeline.write_outputs)
 
@@ -383,7 +385,7 @@ def write_report(report: BatchReport, out_dir: Path) -> Path:
     return path
 
 
-def write_index(report: BatchReport, out_dir: Path) -> Path:
+def write_index(report: BatchReport, out_dir: Path, title: str = "video2style batch results") -> Path:
     """``out/index.html``: per video, a player for each clip (content | style example | result, drawn in the
     page: no video codec needed) with links to the BVH files and the mp4 preview; failures listed."""
     from video2style.results_page import page, player_html
@@ -411,13 +413,14 @@ def write_index(report: BatchReport, out_dir: Path) -> Path:
             links.append((f"content {Path(r['content']).name}", rel(r["content"])))
         if r.get("preview") and Path(r["preview"]).is_file():
             links.append(("mp4 preview", rel(r["preview"])))
-        caption = r["clip"] + "".join(f"; {note}" for note in r.get("notes", []))
+        caption = r["clip"] + "".join(f"; {note}" for note in r.get("notes", [])) + (
+            f" — {r['summary']}" if r.get("summary") else "")
         if r.get("player") and Path(r["player"]).is_file():
             figs.append(player_html(str(Path(r["player"]).resolve()), rel(r["player"]), caption, links))
         else:
             figs.append(f"<figure><figcaption>{html.escape(caption)}<br>" + " · ".join(
                 f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links) + "</figcaption></figure>")
-    text = page("video2style batch results", [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
+    text = page(title, [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
                 "Each player shows the content clip, the style example and the result side by side: play, scrub "
                 "with the slider, drag to turn the view. The mp4 previews are MPEG-4 part 2 files for desktop players.")
     path = out_dir / "index.html"

@@ -367,6 +367,7 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
     outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files for end in (".bvh", "_preview.mp4", "_player.js")]
+    outputs += [("-o", out_dir / name) for name in ("report.json", "index.html")]
     folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
     check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
@@ -384,45 +385,58 @@ def cmd_apply(args) -> None:
     _writable(args.output, "-o", is_dir=True)
     if args.method in ("park", "stgcn"):  # stgcn: the older name
         run_item, files = _park_runner(args, joint_map)
+        heading, facts = f"park: {args.domain}", f"Park et al.'s stylizer, domain {args.domain}"
     else:
         run_item, files = _diffusion_runner(args, joint_map)
+        from video2style.batch import _style_facts
+
+        heading, facts = args.style.name, _style_facts(args.apply_style, args.strength)
     from video2style.interchange import in_formats
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
-        failed = _apply_all(run_item, files)
+        failed, rows = _apply_all(run_item, files)
+        _apply_pages(rows, args.output, heading, facts)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
 
-def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
-    """Run each ``(clip, folder)`` item, printing a line per clip; returns how many failed."""
-    from video2style.pipeline import apply_notes
+def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str) -> None:
+    """apply's ``report.json`` (a row per clip: :func:`video2style.summary.clip_details`) and ``index.html``, the
+    page batch and demo write (:func:`video2style.batch.write_index`)."""
+    from video2style.batch import BatchReport, write_index
+    from video2style.summary import write_report
 
-    failed = 0
+    report = BatchReport([{"video": heading, "style": facts, **r} for r in rows])
+    print(f"report: {write_report(report.rows, out_dir)}")
+    print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every result "
+          "beside its content clip and style example)")
+
+
+def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict]]:
+    """Run each ``(clip, folder)`` item, printing a short line per clip (:func:`video2style.summary.clip_line`);
+    returns how many failed and a report row per clip (:func:`video2style.summary.clip_details`)."""
+    from video2style.summary import clip_details
+
+    failed, rows = 0, []
     for i, (path, where) in enumerate(files, 1):
         try:
             info = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
             failed += 1
             print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
+            rows.append({"clip": path.name, "content": str(path), "status": "failed", "error": str(e)})
             continue
-        extra = ""
-        if info.get("detected"):
-            extra = f"; read as {info['detected']}: {'neutralised first' if info['neutralized'] else 'not neutralised'}"
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        skate = (f", feet sliding on the floor in {100 * info['skating_before']:.1f}% of frames -> "
-                 f"{100 * info['skating_after']:.1f}% after IK (the content clip: {100 * info['skating_content']:.1f}%)"
-                 if "skating_after" in info else "")
-        tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
-        extra += "".join(f"; {note}" for note in apply_notes(info))
-        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
-              f"{tempo}{extra}{skate})")
+        details = clip_details(info)
+        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)}: {details['summary']}")
+        rows.append({"clip": path.name, "content": str(path), "status": "done", **details, "output": outs[0],
+                     "outputs": outs})
         if info.get("preview_note"):
             print(f"    note: {info['preview_note']}", file=sys.stderr)
         if info.get("stream_note"):
             print(f"    note: {info['stream_note']}", file=sys.stderr)
-    return failed
+    return failed, rows
 
 
 def _diffusion_runner(args, joint_map):
@@ -437,7 +451,7 @@ def _diffusion_runner(args, joint_map):
         if getattr(args, flag) is not None:
             raise CliError(f"apply: --{flag} belongs to --method park")
     options = apply_options(args)  # one line for a bad --strength or --tempo, before the style loads
-    style = Style.load(args.style)
+    style = args.apply_style = Style.load(args.style)
     files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)

@@ -321,8 +321,13 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     decided["tempo"] = speed
     ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
     extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
+    from video2style.summary import motion_change
+
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
-            "rolls_conformed": clip.rolls_conformed}
+            "rolls_conformed": clip.rolls_conformed, "change": motion_change(clip.canonical, result),
+            # the written file's own length (a BVH's frames and frame rate; a video's result is canonical)
+            "file_frames": clip.canonical.num_frames if clip.source is None else clip.source.num_frames,
+            "file_fps": (clip.canonical if clip.source is None else clip.source).fps}
     if long_take:
         info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
                                "applied a span at a time only at --tempo 1; memory grows with this take")
