@@ -148,3 +148,53 @@ def test_the_line_names_the_guards_that_held_the_style_back():
     assert line == ("119 frames at 30 fps, 3.97 s; style shows lightly (joints moved 2.4 cm on average, most in the "
                     "legs); neutralised first; feet slide in 0% of frames before, 20% after; held back: still-pose "
                     "guard kept 91% of the fast change; arms kept their own motion (3% of the style's)")
+
+
+def test_learn_says_each_number_in_the_files_own_frames_and_seconds_and_a_guess_as_a_guess(tmp_path, monkeypatch,
+                                                                                          capsys):
+    from transfer.apply import Reading
+
+    monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))
+    unsure = Reading("walk-turn-left", "normal", 0.2, 0.1, 0.5,
+                     (("a person walks and turns left", 0.5), ("a person walks", 0.48), ("a person runs", 0.4)))
+    monkeypatch.setattr("transfer.apply.read_motion", lambda *a, **k: unsure)
+    out = tmp_path / "s.v2s"
+    assert main(["learn", str(SAMPLES / "walk_prior.bvh"), "--style", "taiji", "-o", str(out), "--iterations", "2",
+                 "--allow-partial"]) == 0
+    printed = capsys.readouterr().out
+    # the sample: 119 frames at 30 fps (3.97 s); the models read it as 80 frames at 20 fps; no run time as a length
+    assert "3.97 s: 119 frames at 30 fps in the file (80 frames at 20 fps on the canonical skeleton; read in" in printed
+    [last] = _lines(printed, "learned style")
+    assert "taiji' (" not in last and "not recognised with confidence" in last and "--text" in last, last
+    assert "content by retrieval: 'walk-turn-left'" not in printed and "closest guess 'walk-turn-left'" in printed
+    from transfer.style_file import Style
+
+    assert Style.load(out).meta["content_confident"] is False
+
+
+def test_pose_and_the_demo_say_the_bvh_length_apart_from_the_tracking_speed(tmp_path, monkeypatch, capsys):
+    info = {"video": "elderly.mp4", "bvh": str(tmp_path / "pose" / "elderly.bvh"), "preview": "p.mp4", "frames": 119,
+            "tracked_frames": 119, "bvh_frames": 119, "bvh_fps": 30.0, "bvh_seconds": 119 / 30, "trajectory": "contacts",
+            "fps": 24.8}
+    monkeypatch.setattr("video2style.pose.pose_file", lambda *a, **k: info)
+    video = tmp_path / "elderly.mp4"
+    video.write_bytes(b"x")
+    assert main(["pose", str(video), "-o", str(tmp_path / "e.bvh")]) == 0
+    line = capsys.readouterr().out
+    assert "119 frames at 30 fps (3.97 s)" in line and "tracking ran at 24.8 video frames a second" in line
+    from video2style import batch
+    from video2style.demo import run_demo
+
+    monkeypatch.setattr(batch, "run_batch", lambda *a, **k: batch.BatchReport())
+    monkeypatch.setattr("lifting.blazepose.assets.find_models", lambda *a, **k: None)
+    lines = []
+    run_demo(tmp_path / "demo", progress=lines.append)
+    said = "\n".join(lines)
+    assert "(119 frames at 30 fps, 3.97 s; tracked at 25 video frames a second)" in said
+    assert "first use: fetching the pose models" in said and "36 MB" in said and "models --wheel FILE" in said
+
+
+def test_the_quickstart_says_the_first_video_fetches_36_mb_and_how_to_do_it_offline():
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    quick = readme.split("## Quickstart", 1)[1].split("\n## ", 1)[0]
+    assert "36 MB" in quick and "video2style models --wheel" in quick

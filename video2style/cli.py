@@ -336,8 +336,19 @@ def cmd_learn(args) -> None:
                          apply_config=apply_config)
     if summary["partial"]:
         print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
-    print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
-          f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
+    print(learned_line(summary, out))
+
+
+def learned_line(summary: dict, out: Path) -> str:
+    """learn's closing line: the content said as fact only when it was given or recognised with confidence."""
+    sure = summary.get("content_confident", True)
+    line = (f"learned style {summary['style']!r}" + (f" ({summary['content']})" if sure else "")
+            + f" in {summary['seconds']:.0f} s, {summary['iterations']} iterations -> {out} "
+              f"({summary['bytes'] / 1024:.0f} KiB)")
+    if not sure:
+        line += (f"; what the person does was not recognised with confidence (closest guess: {summary['content']!r}): "
+                 "if that is wrong, learn again with --text 'a person ...'")
+    return line
 
 
 def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = ()) -> list[tuple[Path, Path]]:
@@ -396,21 +407,24 @@ def cmd_apply(args) -> None:
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
         failed, rows = _apply_all(run_item, files)
-        _apply_pages(rows, args.output, heading, facts)
+        if len(rows) > failed:  # a run that made nothing leaves nothing (its errors are printed)
+            _apply_pages(rows, args.output, heading, facts, page=not args.no_preview)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
 
-def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str) -> None:
-    """apply's ``report.json`` (a row per clip: :func:`video2style.summary.clip_details`) and ``index.html``, the
-    page batch and demo write (:func:`video2style.batch.write_index`)."""
+def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str, page: bool = True) -> None:
+    """apply's ``report.json`` (a row per clip: :func:`video2style.summary.clip_details`) and, with ``page`` (not
+    under --no-preview: no players to show), ``index.html``, the page batch and demo write
+    (:func:`video2style.batch.write_index`)."""
     from video2style.batch import BatchReport, write_index
     from video2style.summary import write_report
 
     report = BatchReport([{"video": heading, "style": facts, **r} for r in rows])
     print(f"report: {write_report(report.rows, out_dir)}")
-    print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every result "
-          "beside its content clip and style example)")
+    if page:
+            print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every "
+              "result beside its content clip and style example)")
 
 
 def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict]]:
@@ -487,9 +501,10 @@ def cmd_pose(args) -> None:
     info = pose_file(args.video, out, args.preview, args.cutoff or None, progress=not args.quiet,
                      fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end),
                      rotate=args.rotate)
-    print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
-          f"{info['tracked_frames']}/{info['frames']} frames, trajectory from {info['trajectory']}, "
-          f"{info['fps']:.1f} frames/s" + (f"; preview {info['preview']}" if info["preview"] else ""))
+    print(f"wrote {info['bvh']}: {info['bvh_frames']} frames at {info['bvh_fps']:g} fps ({info['bvh_seconds']:.2f} s), "
+          f"person tracked in {info['tracked_frames']}/{info['frames']} video frames, trajectory from "
+          f"{info['trajectory']}; tracking ran at {info['fps']:.1f} video frames a second"
+          + (f"; preview {info['preview']}" if info["preview"] else ""))
 
 
 def cmd_train_park(args) -> None:

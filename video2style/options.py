@@ -56,7 +56,8 @@ def add_apply_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
                         help="neutralise styled content first (auto: when the motion encoder recognises a style)")
     parser.add_argument("--no-preview", action="store_true",
-                        help="write only the result clips (no mp4 preview, no player data)")
+                        help="write only the result clips and report.json (no mp4 preview, no player data; apply: no "
+                             "index.html)")
     parser.add_argument("--joint-map", type=Path,
                         help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON "
                              "map of canonical role -> your joint name overrides the roles it names")
