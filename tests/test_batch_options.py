@@ -147,7 +147,7 @@ def test_the_line_names_the_guards_that_held_the_style_back():
                       "change": {"joints_cm": 2.4, "most": "legs", "shows": "lightly"}})
     assert line == ("119 frames at 30 fps, 3.97 s; style shows lightly (joints moved 2.4 cm on average, most in the "
                     "legs); neutralised first; feet slide in 0% of frames before, 20% after; held back: still-pose "
-                    "guard kept 91% of the fast change; arms kept their own motion (3% of the style's)")
+                    "guard left out 9% of the fast change; arms kept their own motion (3% of the style's)")
 
 
 def test_learn_says_each_number_in_the_files_own_frames_and_seconds_and_a_guess_as_a_guess(tmp_path, monkeypatch,

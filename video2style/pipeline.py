@@ -227,8 +227,15 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
     read, src = clip.canonical, clip.source  # what each number is: the file's own frames, then the canonical ones
-    length = (f"{src.duration:.2f} s: {src.num_frames} frames at {src.fps:g} fps in the file" if src is not None
-              else f"{read.duration:.2f} s of motion tracked")
+    if src is not None:
+        length = f"{src.duration:.2f} s: {src.num_frames} frames at {src.fps:g} fps in the file"
+    elif span == (None, None):  # a video, whole: its own frames (tracking may start where the person is first seen)
+        from lifting.video import video_info
+
+        fps, frames, _, _ = video_info(Path(path))
+        length = f"{frames / fps:.2f} s: {frames} frames at {fps:g} fps in the video"
+    else:
+        length = f"{read.duration:.2f} s of motion tracked"
     progress(f"      {length} ({read.num_frames} frames at {read.fps:g} fps on the canonical skeleton; read in "
              f"{elapsed(t0)})" + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
     m = load_models(device)

@@ -46,7 +46,7 @@ def guards_held(info: dict) -> list[str]:
     """The guards that held the style back on this clip, in a few words each."""
     held = []  # a share that rounds to 100% held nothing back that a user could see
     if info.get("still_share", 1.0) < HELD:
-        held.append(f"still-pose guard kept {_pct(info['still_share'])} of the fast change")
+        held.append(f"still-pose guard left out {_pct(1 - info['still_share'])} of the fast change")
     if info.get("arm_motion_share", 1.0) < HELD:
         held.append(f"arms kept their own motion ({_pct(info['arm_motion_share'])} of the style's)")
     if info.get("content_share", 1.0) < HELD:
