@@ -46,8 +46,9 @@ def fake_pipeline(monkeypatch):
             raise ValueError(f"{path}: not a style file")
         return _FakeStyle()
 
-    def apply_file(style, model, clip, out_dir, strength, seed):
+    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
         calls["apply"].append(str(clip))
+        calls.setdefault("apply_args", []).append((strength, seed, *rest))
         out_dir.mkdir(parents=True, exist_ok=True)
         bvh = out_dir / f"{clip.stem}.bvh"
         bvh.write_text("bvh")

@@ -254,7 +254,7 @@ def test_apply_writes_onto_the_files_own_armature_and_mesh(tmp_path, rig, fmt):
     run_script("skin", bare, out=str(clip), format=fmt)
     out = tmp_path / "out"
     assert main(["apply", str(zero_style(tmp_path)), str(tmp_path / "in"), "-o", str(out), "--no-preview"]) == 0
-    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".video2style")) == [f"walk.{fmt}"]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".video2style")) == ["report.json", f"walk.{fmt}"]
     a, b = run_script("inspect", clip), run_script("inspect", out / f"walk.{fmt}")
     assert a["meshes"] and a["meshes"] == b["meshes"]  # mesh, skin weights, materials, parent armature
     assert a["bones"].keys() == b["bones"].keys()

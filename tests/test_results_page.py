@@ -65,3 +65,45 @@ def test_the_page_says_what_apply_decided_on_its_own(tmp_path):
     text = write_index(report, out).read_text()
     assert "walk.bvh; the style model barely moves" in text and "reads as the content&#x27;s" in text
     assert "run.bvh;" not in text
+
+
+NODE = shutil.which("node")
+
+# a page's elements as far as the player script reaches them, and a clock run for a second (issue 51, item 7)
+FAKE_DOM = r"""
+const calls = []; let now = 0, queue = [];
+const ctx = new Proxy({}, {get: (o, k) => k in o ? o[k] : () => calls.push(k), set: (o, k, v) => (o[k] = v, true)});
+const canvas = {width: 720, height: 240, getContext: () => ctx, setPointerCapture() {}};
+const slider = {value: 0, max: 0}, btn = {textContent: 'play'};
+const el = {dataset: {key: 'k'}, querySelector: s => ({canvas, input: slider, button: btn})[s]};
+globalThis.document = {querySelectorAll: () => [el]};
+globalThis.window = globalThis;
+window.matchMedia = q => ({matches: REDUCED && q.includes('reduced-motion')});
+globalThis.requestAnimationFrame = f => queue.push(f);
+globalThis.setTimeout = (f, ms) => queue.push(() => { now += ms; f(); });
+window.V2S = {k: DATA};
+PLAYER
+for (let i = 0; i < 200 && queue.length && now < 1000; i++) queue.shift()(now);
+console.log(JSON.stringify({button: btn.textContent, frame: +slider.value, drawn: calls.includes('stroke')}));
+"""
+
+
+@pytest.mark.skipif(NODE is None, reason="no node here to run the page's script")
+@pytest.mark.parametrize("reduced", [False, True])
+def test_the_page_plays_at_once_and_loops_unless_the_reader_asks_for_no_motion(tmp_path, reduced):
+    import json
+
+    from video2style.results_page import PLAYER_JS
+
+    data = {"fps": 20, "frames": 10, "parents": [-1, 0], "left": [], "right": [1],
+            "panels": [{"label": "content", "n": 10, "xyz": [0, 900, 0, 0, 1500, 0] * 10}]}
+    script = tmp_path / "run.js"
+    script.write_text(FAKE_DOM.replace("REDUCED", "true" if reduced else "false").replace("DATA", json.dumps(data))
+                      .replace("PLAYER", PLAYER_JS))
+    seen = json.loads(subprocess.run([NODE, str(script)], capture_output=True, text=True, check=True,
+                                     timeout=60).stdout)
+    assert seen["drawn"]  # the first frame is there at once
+    if reduced:
+        assert seen == {"button": "play", "frame": 0, "drawn": True}  # a still first frame and the play control
+    else:
+        assert seen["button"] == "pause" and seen["frame"] != 0  # playing, wrapped round the 10 frames (0.5 s)

@@ -387,7 +387,10 @@ def test_a_failed_batch_row_points_at_no_output(tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr("video2style.pipeline.apply_file", fails)
-    row = apply_item(Style({}, {}), None, "facts", "v.mp4", _clip(tmp_path / "c.bvh"), tmp_path / "out", 0.5, 0)
+    from video2style.options import ApplyOptions
+
+    row = apply_item(Style({}, {}), None, "facts", "v.mp4", _clip(tmp_path / "c.bvh"), tmp_path / "out",
+                     ApplyOptions(strength=0.5, seed=0))
     assert row["status"] == "failed" and row["output"] == row["preview"] == row["player"] == ""
 
 

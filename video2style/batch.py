@@ -39,9 +39,41 @@ def find_videos(folder: Path) -> list[Path]:
     return sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in VIDEO_SUFFIXES)
 
 
+STYLE_SUFFIX = ".v2s"
+
+
+def is_style_file(path: Path) -> bool:
+    return Path(path).suffix.lower() == STYLE_SUFFIX
+
+
+def find_style_sources(inputs) -> list[Path]:
+    """What a batch takes its styles from: each file named (a video, a BVH/FBX/GLB/glTF example, a ``.v2s`` style
+    file from ``learn``, which is used as it is) and, in each folder named, its videos and style files (a folder's
+    clips are left to ``--content``: name an example clip to learn from it). One-line errors otherwise."""
+    from video2style.interchange import is_clip_file
+
+    found: list[Path] = []
+    for p in [inputs] if isinstance(inputs, (str, Path)) else inputs:
+        p = Path(p)
+        if p.is_dir():
+            found += sorted(q for q in p.iterdir() if q.is_file() and (q.suffix.lower() in VIDEO_SUFFIXES or is_style_file(q)))
+        elif not p.exists():
+            raise FileNotFoundError(f"{p}: no such file or folder")
+        elif p.suffix.lower() in VIDEO_SUFFIXES or is_style_file(p) or p.suffix.lower() == ".bvh" or is_clip_file(p):
+            found.append(p)
+        else:
+            raise ValueError(f"{p}: not a video, a BVH/FBX/GLB/glTF example or a style file (.v2s)")
+    return list(dict.fromkeys(found))
+
+
+def style_path(source: Path, key: str, out_dir: Path) -> Path:
+    """Where a source's style is: a style file given is used where it is; a learned one goes to ``OUT/styles``."""
+    return Path(source) if is_style_file(source) else Path(out_dir) / "styles" / f"{key}.v2s"
+
+
 def video_keys(videos: list[Path]) -> dict[Path, str]:
-    """A name per video for its style file and result folder: the stem, or ``stem_ext`` where two videos
-    share a stem (``x.mp4`` and ``x.mov``)."""
+    """A name per style source (video, example clip, style file) for its style file and result folder: the stem,
+    or ``stem_ext`` where two share a stem (``x.mp4`` and ``x.mov``)."""
     stems = [v.stem for v in videos]
     return {v: v.stem if stems.count(v.stem) == 1 else f"{v.stem}_{v.suffix[1:].lower()}" for v in videos}
 
@@ -137,17 +169,19 @@ def folder_lock(out_dir: Path, command: str = "batch", writes_into=()):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
+def plan(inputs, content_dir: Path, out_dir: Path | None = None,
          progress=None) -> tuple[list[Path], list[Path], dict[Path, str]]:
-    """``(videos, clips, name of each video's style and result folder)``; FileNotFoundError when either is empty.
+    """``(style sources, clips, name of each source's style and result folder)``: ``inputs`` a path or a list of
+    them (:func:`find_style_sources`); FileNotFoundError when either is empty.
     With ``out_dir``, :func:`check_batch_outputs` first, and results are never taken as content
     (:func:`video2style.pipeline.content_clips`; ``progress`` hears what was left out)."""
-    videos = find_videos(videos_dir)
+    videos = find_style_sources(inputs)
     if not videos:
-        raise FileNotFoundError(f"{videos_dir}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))})")
+        names = ", ".join(str(p) for p in ([inputs] if isinstance(inputs, (str, Path)) else inputs))
+        raise FileNotFoundError(f"{names}: no videos ({', '.join(sorted(VIDEO_SUFFIXES))}) nor style files (.v2s)")
     keys = video_keys(videos)
     if out_dir is not None:
-        check_batch_outputs(videos_dir, content_dir, out_dir, list(keys.values()))
+        check_batch_outputs(inputs, content_dir, out_dir, list(keys.values()))
     from video2style.interchange import find_clip_files
 
     protected: list[Path] = []
@@ -163,18 +197,22 @@ def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
     return videos, clips, keys
 
 
-def check_batch_outputs(videos_dir: Path, content_dir: Path, out_dir: Path, keys: list[str]) -> None:
+def check_batch_outputs(inputs, content_dir: Path, out_dir: Path, keys: list[str]) -> None:
     """Refuse, in one line, an output folder whose results would overwrite or mix with the inputs: ``-o`` the
-    ``--content`` folder, or the content or videos inside a result folder (``OUT/<video>``, ``OUT/styles``); and
-    a result folder that is a symlink (someone sharing OUT could point it at the user's files)."""
+    ``--content`` folder, or the content or style sources inside a result folder (``OUT/<video>``, ``OUT/styles``;
+    a style file given may lie in ``OUT/styles``: it is only read); and a result folder that is a symlink
+    (someone sharing OUT could point it at the user's files)."""
     out_dir = Path(out_dir)
+    sources = [Path(p) for p in ([inputs] if isinstance(inputs, (str, Path)) else inputs)]
     check_outputs([("-o", out_dir)], [("the --content folder", content_dir)])
     check_no_links(out_dir, [out_dir / sub for sub in ["styles", *keys]])
     for sub in ["styles", *keys]:
         where = out_dir / sub
-        for what, folder in (("--content", content_dir), ("videos", videos_dir)):
+        named = [("the --content folder", content_dir)] + [("the videos folder" if p.is_dir() else "the style source", p)
+                                                           for p in sources if not (sub == "styles" and is_style_file(p))]
+        for what, folder in named:
             if inside(folder, where):
-                raise ValueError(f"{where}: -o would write results into the {what} folder {folder} "
+                raise ValueError(f"{where}: -o would write results into {what} {folder} "
                                  "(results would overwrite or mix with the inputs); give another -o")
 
 
@@ -193,85 +231,126 @@ def batch_folder(out_dir: Path, progress):
             sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; all work is over now
 
 
-def run_batch(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-              seed: int = 0, progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
-    """Styles go to ``out/styles/<video>.v2s``; results to ``out/<video>/<clip's path under content>.bvh``
-    (+ previews). An item counts as done only when its BVH and its preview both exist; a style file in the
-    output folder that does not load is learned again. One batch per output folder at a time. The models run
-    on ``device`` (:func:`transfer.bundle.load_models`). ``rotate``: every video's frames turned this many
+def run_batch(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
+              seed: int = 0, progress=print, device: str = "cpu", rotate: int | None = None,
+              options=None) -> BatchReport:
+    """Styles from ``inputs`` (:func:`find_style_sources`: videos, example clips, style files, folders of videos and
+    style files): a style file is used as it is; every other source's style is learned into ``out/styles/<name>.v2s``
+    (and loaded from there on a later run). Results go to ``out/<name>/<clip's path under content>`` (+ previews).
+    ``options``: the apply options (:class:`video2style.options.ApplyOptions`; default: ``strength`` and ``seed``,
+    the rest as apply's defaults). An item counts as done only when its result and its preview both exist; a style
+    file in the output folder that does not load is learned again. One batch per output folder at a time. The models
+    run on ``device`` (:func:`transfer.bundle.load_models`). ``rotate``: every video's frames turned this many
     degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
+    from video2style.options import ApplyOptions
+
+    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
-    videos, clips, keys = plan(videos_dir, content_dir, out_dir, progress)
+    videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
         report = BatchReport()
         for vi, video in enumerate(videos, 1):
-            _one_video(video, keys[video], f"[video {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, strength,
-                       learn_config, seed, progress, report, device, rotate)
+            _one_video(video, keys[video], f"[style {vi}/{len(videos)}]", clips, Path(content_dir), out_dir, options,
+                       learn_config, progress, report, device, rotate)
         write_index(report, out_dir)
         write_report(report, out_dir)
     return report
 
 
-def _style_for(video: Path, style_path: Path, tag: str, learn_config, progress, device: str = "cpu",
+def _style_for(video: Path, style_file: Path, tag: str, learn_config, progress, device: str = "cpu",
                rotate: int | None = None):
-    """The video's style: loaded from the output folder if it is there and valid, else learned."""
+    """The source's style: a style file given, loaded; else loaded from the output folder if it is there and
+    valid, else learned (an FBX/glTF example through its action as BVH)."""
     from transfer.style_file import Style
+    from video2style.interchange import is_clip_file, shared_converter
     from video2style.pipeline import learn_file
 
-    if style_path.is_file():
+    if is_style_file(video):
+        style = Style.load(video)
+        progress(f"{tag} {video.name}: a style file, used as it is")
+        return style
+    if style_file.is_file():
         try:
-            style = Style.load(style_path)
+            style = Style.load(style_file)
             progress(f"{tag} {video.name}: style exists, skipping learning")
             return style
         except ValueError as e:
             progress(f"{tag} {video.name}: {e}; learning it again")
     else:
         progress(f"{tag} {video.name}: learning")
-    learn_file(video, style_path, style_words=video.stem.replace("_", " "), config=learn_config,
-               progress=lambda s: progress(f"    {s}"), device=device, rotate=rotate)
-    return Style.load(style_path)
+    is_video = video.suffix.lower() in VIDEO_SUFFIXES
+    source = shared_converter().to_bvh(video) if is_clip_file(video) else video
+    learn_file(source, style_file, style_words=video.stem.replace("_", " "), config=learn_config,
+               progress=lambda s: progress(f"    {s}"), device=device, rotate=rotate if is_video else None)
+    return Style.load(style_file)
 
 
-def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, strength: float,
-               learn_config, seed: int, progress, report: BatchReport, device: str = "cpu",
+def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, options,
+               learn_config, progress, report: BatchReport, device: str = "cpu",
                rotate: int | None = None) -> None:
     from transfer.bundle import load_models
     from transfer.style_file import style_model
 
     t0 = time.time()
     try:
-        style = _style_for(video, out_dir / "styles" / f"{key}.v2s", tag, learn_config, progress, device, rotate)
+        style = _style_for(video, style_path(video, key, out_dir), tag, learn_config, progress, device, rotate)
     except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
-        report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
+        report.add(video=video.name, status="failed", error=f"{'style' if is_style_file(video) else 'learn'}: {e}",
+                   seconds=time.time() - t0)
         progress(f"    failed: {e}")
         return
     model = style_model(load_models(device).prior, style)
-    facts = _style_facts(style, strength)
+    facts = _style_facts(style, options.strength)
     for ci, clip in enumerate(clips, 1):
         row = apply_item(style, model, facts, video.name, clip, out_dir / key / clip.relative_to(content_dir).parent,
-                         strength, seed)
+                         options)
         report.add(**row)
         if row["status"] == "failed":
             progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {row['error']}")
         elif row["status"] == "done":
-            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {row['output']}")
+            progress(f"    [{ci}/{len(clips)}] {clip.name} -> {row['output']}: {row['summary']}")
 
 
-def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, strength: float, seed: int,
-               retries: int = 0) -> dict:
-    """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide): skipped
-    when its BVH and preview exist, else applied (tried ``retries`` more times on an error). The report row."""
-    from video2style.interchange import in_format, is_clip_file, shared_converter
-    from video2style.pipeline import apply_file, apply_notes
+_CONVERTERS: dict = {}
 
-    # an FBX/glTF clip's result: the same format, keyed onto its own file (one Blender per batch process)
-    run = in_format(lambda path, folder: apply_file(style, model, path, folder, strength, seed), shared_converter)
-    out_bvh = where / f"{clip.stem}{clip.suffix.lower() if is_clip_file(clip) else '.bvh'}"
+
+def _converter(options):
+    """This process's :class:`video2style.interchange.Converter` for ``options``' --armature/--action (one Blender)."""
+    from video2style.interchange import Converter, shared_converter
+
+    if options.armature is None and options.action is None:
+        return shared_converter()
+    key = (options.armature, options.action)
+    if key not in _CONVERTERS:
+        import sys
+
+        _CONVERTERS[key] = Converter(*key, notify=lambda s: print(s, file=sys.stderr))
+    return _CONVERTERS[key]
+
+
+def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, options, retries: int = 0) -> dict:
+    """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide), with the
+    apply ``options`` (:class:`video2style.options.ApplyOptions`): skipped when its result and preview (when one is
+    asked for) exist, else applied (tried ``retries`` more times on an error). The report row."""
+    from motioncore.retarget import load_joint_map
+    from video2style.interchange import in_format, output_suffix
+    from video2style.pipeline import apply_file
+    from video2style.summary import clip_details
+
+    joint_map = load_joint_map(options.joint_map) if options.joint_map else None
+
+    def one(path, folder):
+        return apply_file(style, model, path, folder, options.strength, options.seed, options.neutralize, joint_map,
+                          options.preview, options.tempo)
+
+    # an FBX/glTF clip's result: the same format (or --format), keyed onto its own file (one Blender per process)
+    run = in_format(one, lambda: _converter(options), options.format)
+    out_bvh = where / f"{clip.stem}{output_suffix(clip, options.format)}"
     preview = where / f"{clip.stem}_preview.mp4"
     player = where / f"{clip.stem}_player.js"
     row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "output": str(out_bvh),
-           "preview": str(preview), "player": str(player) if player.is_file() else ""}
-    if out_bvh.is_file() and preview.is_file():
+           "preview": str(preview) if options.preview else "", "player": str(player) if player.is_file() else ""}
+    if out_bvh.is_file() and (preview.is_file() or not options.preview):
         return {**row, "status": "skipped (done)", "seconds": 0.0, "attempts": 0}
     t0, error = time.time(), None
     for attempt in range(1, retries + 2):
@@ -280,8 +359,9 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
             error = str(e)
             continue
+        details = {k: v for k, v in clip_details(info).items() if k not in ("input", "output", "preview", "player", "seconds")}
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
-                "preview": info.get("preview", ""), "player": info.get("player", ""), "notes": apply_notes(info)}
+                "preview": info.get("preview", ""), "player": info.get("player", ""), **details}
     return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1,
             "output": "", "preview": "", "player": ""}  # a failed item wrote nothing (pipeline.write_outputs)
 
@@ -305,7 +385,7 @@ def write_report(report: BatchReport, out_dir: Path) -> Path:
     return path
 
 
-def write_index(report: BatchReport, out_dir: Path) -> Path:
+def write_index(report: BatchReport, out_dir: Path, title: str = "video2style batch results") -> Path:
     """``out/index.html``: per video, a player for each clip (content | style example | result, drawn in the
     page: no video codec needed) with links to the BVH files and the mp4 preview; failures listed."""
     from video2style.results_page import page, player_html
@@ -333,13 +413,14 @@ def write_index(report: BatchReport, out_dir: Path) -> Path:
             links.append((f"content {Path(r['content']).name}", rel(r["content"])))
         if r.get("preview") and Path(r["preview"]).is_file():
             links.append(("mp4 preview", rel(r["preview"])))
-        caption = r["clip"] + "".join(f"; {note}" for note in r.get("notes", []))
+        caption = r["clip"] + "".join(f"; {note}" for note in r.get("notes", [])) + (
+            f" — {r['summary']}" if r.get("summary") else "")
         if r.get("player") and Path(r["player"]).is_file():
             figs.append(player_html(str(Path(r["player"]).resolve()), rel(r["player"]), caption, links))
         else:
             figs.append(f"<figure><figcaption>{html.escape(caption)}<br>" + " · ".join(
                 f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links) + "</figcaption></figure>")
-    text = page("video2style batch results", [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
+    text = page(title, [(v, facts.get(v, ""), figs) for v, figs in sections.items()],
                 "Each player shows the content clip, the style example and the result side by side: play, scrub "
                 "with the slider, drag to turn the view. The mp4 previews are MPEG-4 part 2 files for desktop players.")
     path = out_dir / "index.html"

@@ -26,6 +26,7 @@ from video2style.batch import (
     apply_item,
     batch_folder,
     plan,
+    style_path,
     write_index,
     write_report,
 )
@@ -60,7 +61,7 @@ def task_options(device: str) -> dict:
     return {"num_cpus": 1, "max_retries": 3, **({"num_gpus": 1} if device == "cuda" else {})}
 
 
-def _learn_job(video: str, style_path: str, learn_config, threads: int, device: str = "cpu",
+def _learn_job(video: str, style_file: str, learn_config, threads: int, device: str = "cpu",
                rotate: int | None = None) -> dict:
     """Load or learn one video's style (runs in a Ray worker, on ``device``)."""
     import torch
@@ -70,15 +71,15 @@ def _learn_job(video: str, style_path: str, learn_config, threads: int, device: 
     torch.set_num_threads(threads)
     t0 = time.time()
     try:
-        _style_for(Path(video), Path(style_path), "", learn_config, lambda s: None, device, rotate)
+        _style_for(Path(video), Path(style_file), "", learn_config, lambda s: None, device, rotate)
         return {"video": Path(video).name, "status": "learned", "seconds": time.time() - t0, "worker": _worker()}
     except Exception as e:  # noqa: BLE001 - reported as the video's failure
-        return {"video": Path(video).name, "status": "failed", "error": f"learn: {e}", "seconds": time.time() - t0,
+        return {"video": Path(video).name, "status": "failed", "error": f"{'style' if video.lower().endswith('.v2s') else 'learn'}: {e}", "seconds": time.time() - t0,
                 "worker": _worker()}
 
 
-def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], strength: float, seed: int,
-               retries: int, threads: int, device: str = "cpu") -> list[dict]:
+def _apply_job(video: str, style_file: str, items: list[tuple[str, str]], options, retries: int, threads: int,
+               device: str = "cpu") -> list[dict]:
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
@@ -86,16 +87,17 @@ def _apply_job(video: str, style_path: str, items: list[tuple[str, str]], streng
     from transfer.style_file import Style, style_model
 
     torch.set_num_threads(threads)
-    style = Style.load(Path(style_path))
+    style = Style.load(Path(style_file))
     model = style_model(load_models(device).prior, style)
-    facts = _style_facts(style, strength)
-    return [{**apply_item(style, model, facts, video, Path(clip), Path(where), strength, seed, retries), "worker": _worker()}
+    facts = _style_facts(style, options.strength)
+    return [{**apply_item(style, model, facts, video, Path(clip), Path(where), options, retries), "worker": _worker()}
             for clip, where in items]
 
 
-def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
+def run_batch_ray(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
                   seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
-                  retries: int = 1, progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
+                  retries: int = 1, progress=print, device: str = "cpu", rotate: int | None = None,
+                  options=None) -> BatchReport:
     """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
     CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
     ``report.json`` (one row per item: status, seconds, worker, attempts, error). ``device``: where the
@@ -106,8 +108,11 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
         raise RuntimeError('batch --ray needs Ray: pip install "video2style[ray]"') from None
     from tqdm import tqdm
 
+    from video2style.options import ApplyOptions
+
+    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
-    videos, clips, keys = plan(videos_dir, content_dir, out_dir, progress)
+    videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
         started_here = not ray.is_initialized()
         on = task_device(device, None) if address is None else None  # a local Ray: this machine's torch decides
@@ -123,7 +128,7 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
             threads = max(1, (os.cpu_count() or 1) // max(1, int(workers or os.cpu_count() or 1))) if address is None else 1
             learn = ray.remote(_learn_job).options(**task_options(on))
             apply = ray.remote(_apply_job).options(**task_options(on))
-            pending = {learn.remote(str(v), str(out_dir / "styles" / f"{keys[v]}.v2s"), learn_config, threads, on, rotate):
+            pending = {learn.remote(str(v), str(style_path(v, keys[v], out_dir)), learn_config, threads, on, rotate):
                        ("learn", v) for v in videos}
             report = BatchReport()
             bar = tqdm(total=len(videos) * (1 + len(clips)), unit="item", desc="batch", disable=progress is None)
@@ -137,10 +142,10 @@ def run_batch_ray(videos_dir: Path, content_dir: Path, out_dir: Path, strength: 
                         report.add(**result)
                         bar.update(len(clips))
                         continue
-                    style_path = str(out_dir / "styles" / f"{keys[what]}.v2s")
+                    style_file = str(style_path(what, keys[what], out_dir))
                     items = [(str(c), str(out_dir / keys[what] / c.relative_to(content_dir).parent)) for c in clips]
                     for i in range(0, len(items), chunk):
-                        ref = apply.remote(what.name, style_path, items[i:i + chunk], strength, seed, retries, threads, on)
+                        ref = apply.remote(what.name, style_file, items[i:i + chunk], options, retries, threads, on)
                         pending[ref] = ("apply", len(items[i:i + chunk]))
                 else:
                     for row in result:

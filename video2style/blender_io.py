@@ -254,6 +254,10 @@ def _key(arm, act_name, npz):
         locs = numpy.array([k[0] for k in keys[b.name]], dtype=numpy.float32)
         rots = numpy.array([k[1] for k in keys[b.name]], dtype=numpy.float32)
         for path, values in (("location", locs), (rot_path, rots), ("scale", numpy.ones((frames, 3), numpy.float32))):
+            # a channel still but for the float noise of the matrices it came from: one value (the exporter then
+            # writes its two end keys, not one per frame; see FBX_SIMPLIFY)
+            still = numpy.ptp(values, axis=0) < STILL * numpy.maximum(1.0, numpy.abs(values).max(axis=0))
+            values = numpy.where(still, values[:1], values)
             for c in range(values.shape[1]):
                 fc = action.fcurves.new(f'pose.bones["{b.name}"].{path}', index=c, action_group=b.name)
                 fc.keyframe_points.add(frames)
@@ -278,12 +282,18 @@ def _rest_before(action, start):
     bpy.context.scene.frame_set(start - 1)
 
 
+# the FBX exporter's key simplification: keys that change a value by less than this x 1e-3 of its size are left
+# out, so a channel the style did not change is two keys, not one per frame (a file comes back near its own size)
+FBX_SIMPLIFY = 0.01
+STILL = 1e-5  # a key channel whose values span less than this (relative to 1 or their size) is one value
+
+
 def _export(out, fmt):
     if fmt == "fbx":
         bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
                                  bake_anim_use_all_bones=True, bake_anim_use_nla_strips=False,
                                  bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
-                                 bake_anim_simplify_factor=0.0, apply_unit_scale=True)
+                                 bake_anim_simplify_factor=FBX_SIMPLIFY, apply_unit_scale=True)
     elif fmt in ("glb", "gltf"):
         bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else "GLTF_EMBEDDED",
                                   export_animations=True, export_nla_strips=False, export_force_sampling=True,
@@ -318,6 +328,8 @@ def job_write(job):
         scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
     action, start, end = _key(arm, name, npz)
     scene.frame_start, scene.frame_end = start, end
+    if job.get("source"):  # the FBX take is named after the scene: the source's take ("<armature>|<take>" read)
+        scene.name = name[len(arm.name) + 1:] if name.startswith(f"{arm.name}|") else name
     if job["format"] == "fbx":
         _rest_before(action, start)
     _export(job["out"], job["format"])

@@ -336,8 +336,19 @@ def cmd_learn(args) -> None:
                          apply_config=apply_config)
     if summary["partial"]:
         print(f"warning: {summary['partial']} (kept because of --allow-partial)", file=sys.stderr)
-    print(f"learned style {summary['style']!r} ({summary['content']}) in {summary['seconds']:.0f} s, "
-          f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
+    print(learned_line(summary, out))
+
+
+def learned_line(summary: dict, out: Path) -> str:
+    """learn's closing line: the content said as fact only when it was given or recognised with confidence."""
+    sure = summary.get("content_confident", True)
+    line = (f"learned style {summary['style']!r}" + (f" ({summary['content']})" if sure else "")
+            + f" in {summary['seconds']:.0f} s, {summary['iterations']} iterations -> {out} "
+              f"({summary['bytes'] / 1024:.0f} KiB)")
+    if not sure:
+        line += (f"; what the person does was not recognised with confidence (closest guess: {summary['content']!r}): "
+                 "if that is wrong, learn again with --text 'a person ...'")
+    return line
 
 
 def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = ()) -> list[tuple[Path, Path]]:
@@ -367,6 +378,7 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
     outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files for end in (".bvh", "_preview.mp4", "_player.js")]
+    outputs += [("-o", out_dir / name) for name in ("report.json", "index.html")]
     folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
     check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
@@ -384,51 +396,67 @@ def cmd_apply(args) -> None:
     _writable(args.output, "-o", is_dir=True)
     if args.method in ("park", "stgcn"):  # stgcn: the older name
         run_item, files = _park_runner(args, joint_map)
+        heading, facts = f"park: {args.domain}", f"Park et al.'s stylizer, domain {args.domain}"
     else:
         run_item, files = _diffusion_runner(args, joint_map)
+        from video2style.batch import _style_facts
+
+        heading, facts = args.style.name, _style_facts(args.apply_style, args.strength)
     from video2style.interchange import in_formats
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
-        failed = _apply_all(run_item, files)
+        failed, rows = _apply_all(run_item, files)
+        if len(rows) > failed:  # a run that made nothing leaves nothing (its errors are printed)
+            _apply_pages(rows, args.output, heading, facts, page=not args.no_preview)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
 
 
-def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
-    """Run each ``(clip, folder)`` item, printing a line per clip; returns how many failed."""
-    from video2style.pipeline import apply_notes
+def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str, page: bool = True) -> None:
+    """apply's ``report.json`` (a row per clip: :func:`video2style.summary.clip_details`) and, with ``page`` (not
+    under --no-preview: no players to show), ``index.html``, the page batch and demo write
+    (:func:`video2style.batch.write_index`)."""
+    from video2style.batch import BatchReport, write_index
+    from video2style.summary import write_report
 
-    failed = 0
+    report = BatchReport([{"video": heading, "style": facts, **r} for r in rows])
+    print(f"report: {write_report(report.rows, out_dir)}")
+    if page:
+            print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every "
+              "result beside its content clip and style example)")
+
+
+def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict]]:
+    """Run each ``(clip, folder)`` item, printing a short line per clip (:func:`video2style.summary.clip_line`);
+    returns how many failed and a report row per clip (:func:`video2style.summary.clip_details`)."""
+    from video2style.summary import clip_details
+
+    failed, rows = 0, []
     for i, (path, where) in enumerate(files, 1):
         try:
             info = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
             failed += 1
             print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
+            rows.append({"clip": path.name, "content": str(path), "status": "failed", "error": str(e)})
             continue
-        extra = ""
-        if info.get("detected"):
-            extra = f"; read as {info['detected']}: {'neutralised first' if info['neutralized'] else 'not neutralised'}"
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        skate = (f", feet sliding on the floor in {100 * info['skating_before']:.1f}% of frames -> "
-                 f"{100 * info['skating_after']:.1f}% after IK (the content clip: {100 * info['skating_content']:.1f}%)"
-                 if "skating_after" in info else "")
-        tempo = f", tempo {info['tempo']:.2f}" if info.get("tempo", 1.0) != 1.0 else ""
-        extra += "".join(f"; {note}" for note in apply_notes(info))
-        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)} ({info['frames']} frames, {info['seconds_transfer']:.2f} s"
-              f"{tempo}{extra}{skate})")
+        details = clip_details(info)
+        print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)}: {details['summary']}")
+        rows.append({"clip": path.name, "content": str(path), "status": "done", **details, "output": outs[0],
+                     "outputs": outs})
         if info.get("preview_note"):
             print(f"    note: {info['preview_note']}", file=sys.stderr)
         if info.get("stream_note"):
             print(f"    note: {info['stream_note']}", file=sys.stderr)
-    return failed
+    return failed, rows
 
 
 def _diffusion_runner(args, joint_map):
     from transfer.bundle import base_model_warning, load_models
     from transfer.style_file import Style, style_model
-    from transfer.tempo import resolve_tempo
+    from video2style.options import apply_options
     from video2style.pipeline import apply_file
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
@@ -436,26 +464,15 @@ def _diffusion_runner(args, joint_map):
     for flag in ("domain", "reference", "mix"):
         if getattr(args, flag) is not None:
             raise CliError(f"apply: --{flag} belongs to --method park")
-    _check_strength(args.strength)
-    style = Style.load(args.style)
-    if args.tempo not in ("off", "auto"):
-        resolve_tempo(style, args.tempo)  # a bad number: one line before any work (before the models load)
+    options = apply_options(args)  # one line for a bad --strength or --tempo, before the style loads
+    style = args.apply_style = Style.load(args.style)
     files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
         print(warning, file=sys.stderr)
-    return (lambda path, where: apply_file(style, model, path, where, args.strength, args.seed, args.neutralize,
-                                           joint_map, not args.no_preview, args.tempo)), files
-
-
-def _check_strength(strength: float) -> None:
-    from transfer.style_config import check_strength
-
-    try:
-        check_strength(strength)
-    except ValueError as e:
-        raise CliError(f"--{e}") from None
+    return (lambda path, where: apply_file(style, model, path, where, options.strength, options.seed, options.neutralize,
+                                           joint_map, options.preview, options.tempo)), files
 
 
 def _park_runner(args, joint_map):
@@ -484,9 +501,10 @@ def cmd_pose(args) -> None:
     info = pose_file(args.video, out, args.preview, args.cutoff or None, progress=not args.quiet,
                      fov_deg=args.fov, trajectory=args.trajectory, span=(args.start, args.end),
                      rotate=args.rotate)
-    print(f"wrote {info['bvh']}: {info['bvh_frames']} frames ({info['bvh_seconds']:.1f} s), person tracked in "
-          f"{info['tracked_frames']}/{info['frames']} frames, trajectory from {info['trajectory']}, "
-          f"{info['fps']:.1f} frames/s" + (f"; preview {info['preview']}" if info["preview"] else ""))
+    print(f"wrote {info['bvh']}: {info['bvh_frames']} frames at {info['bvh_fps']:g} fps ({info['bvh_seconds']:.2f} s), "
+          f"person tracked in {info['tracked_frames']}/{info['frames']} video frames, trajectory from "
+          f"{info['trajectory']}; tracking ran at {info['fps']:.1f} video frames a second"
+          + (f"; preview {info['preview']}" if info["preview"] else ""))
 
 
 def cmd_train_park(args) -> None:
@@ -564,20 +582,21 @@ def cmd_evaluate(args) -> None:
 
 def cmd_batch(args) -> None:
     from video2style.batch import run_batch
+    from video2style.options import apply_options
 
-    _check_strength(args.strength)
+    options = apply_options(args)  # the same options, checked the same way, as apply's
     _writable(args.output, "-o", is_dir=True)
     _free_space(args.output / "styles" / "style.v2s", STYLE_FILE_BYTES, "-o")  # room for at least one style
     if args.ray is not None:
         from video2style.batch_ray import run_batch_ray
 
-        report = run_batch_ray(args.videos, args.content, args.output, args.strength, seed=args.seed,
+        report = run_batch_ray(args.inputs, args.content, args.output, options=options,
                                address=None if args.ray == "local" else args.ray, workers=args.workers, device=args.device,
                                rotate=args.rotate)
     else:
         if args.workers is not None:
             raise CliError("batch: --workers goes with --ray")
-        report = run_batch(args.videos, args.content, args.output, args.strength, seed=args.seed, device=args.device,
+        report = run_batch(args.inputs, args.content, args.output, options=options, device=args.device,
                            rotate=args.rotate)
     print(report.table())
     print(f"report: {args.output / 'report.json'}")
@@ -793,16 +812,6 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--method", choices=["diffusion", "park", "stgcn"], default="diffusion",
                     help="diffusion: a learned style file (default); park: Park et al. 2021, style from a domain "
                          "(stgcn: its older name)")
-    ap.add_argument("--strength", type=float, default=0.5,
-                    help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
-                         "at some cost to the content (docs/RESULTS.md has the trade-off curve)")
-    ap.add_argument("--tempo", default="off",
-                    help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
-                         "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
-    ap.add_argument("--seed", type=_style_option("seed"), default=0,
-                    help="noise seed: the same seed gives the same result (default: %(default)s)")
-    ap.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
-                    help="neutralise styled content first (auto: when the motion encoder recognises a style)")
     ap.add_argument("--domain", help="park: target style domain (active, elderly, exhausted, feminine, masculine, normal, youthful)")
     ap.add_argument("--variants", type=int, default=1, help="park: outputs from this many noise draws (seeds seed, seed+1, ...)")
     ap.add_argument("--reference", type=Path, help="park: take the style code from this clip (read as --domain)")
@@ -810,9 +819,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--mix-steps", type=int, default=5, help="park: interpolation outputs, ends included (default: %(default)s)")
     ap.add_argument("--park-weights", "--weights", dest="park_weights", type=Path,
                     help="park: its weights (default: the shipped park_stylizer.safetensors; --weights: the older name)")
-    ap.add_argument("--no-preview", action="store_true", help="write only the BVH files (no mp4 preview, no player data)")
-    ap.add_argument("--joint-map", type=Path, help="rarely needed: skeletons are mapped automatically (see `video2style skeleton FILE`); a JSON map of canonical role -> your joint name overrides the roles it names")
-    add_clip_format_arguments(ap, formats=True)
+    from video2style.options import add_apply_options
+
+    add_apply_options(ap)  # the options batch takes too, from this one definition
     _add_device(ap)
     ap.set_defaults(func=cmd_apply)
 
@@ -830,14 +839,22 @@ def build_parser() -> argparse.ArgumentParser:
     po.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     po.set_defaults(func=cmd_pose)
 
-    b = sub.add_parser("batch", help="learn each video's style and apply it to a BVH library (resumable)",
-                       epilog="example: video2style batch videos/ --content library/ -o results/")
-    b.add_argument("videos", type=Path, help="folder of videos")
+    b = sub.add_parser("batch", help="learn (or reuse) each style and apply it to a BVH/FBX library (resumable)",
+                       epilog="examples:\n  video2style batch videos/ --content library/ -o results/\n"
+                              "  video2style batch old.v2s strut.mp4 proud.bvh --content library/ -o results/ --tempo auto\n\n"
+                              "Style sources may be mixed: videos, BVH/FBX/GLB/glTF example clips and style files from\n"
+                              "`video2style learn` (used as they are, not learned again); a folder gives its videos and\n"
+                              "style files. The apply options mean what they mean for `video2style apply`.",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    b.add_argument("inputs", type=Path, nargs="+", metavar="STYLE",
+                   help="videos, example clips (.bvh, .fbx, .glb, .gltf), style files (.v2s), or folders of videos "
+                        "and style files")
     b.add_argument("--content", type=Path, required=True, help="folder of BVH (or FBX, GLB, glTF) clips, searched recursively; "
-                   "FBX/glTF results keep their format")
-    b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per video, index.html")
-    b.add_argument("--strength", type=float, default=0.5, help="as apply --strength (default: %(default)s)")
-    b.add_argument("--seed", type=_style_option("seed"), default=0, help="noise seed for apply (default: %(default)s)")
+                   "FBX/glTF results keep their format unless --format")
+    b.add_argument("-o", "--output", type=Path, required=True, help="output folder: styles/, one folder per style, index.html")
+    from video2style.options import add_apply_options
+
+    add_apply_options(b)  # apply's options, from its own definition
     b.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
                    help="run on Ray (pip install \"video2style[ray]\"): alone, a local Ray on this machine; "
                         "auto or ray://host:port joins a cluster (OUT must then be a folder every node sees)")

@@ -34,12 +34,18 @@ def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
                   [("the sample", p) for p in clips + videos])
     check_batch_outputs(samples, samples, out_dir, list(video_keys(videos).values()))
     out_dir.mkdir(parents=True, exist_ok=True)
+    from lifting.blazepose.assets import WHEEL_ABOUT, find_models
+
+    if find_models() is None:  # said before pip starts: a first demo on a fresh machine downloads
+        progress(f"first use: fetching the pose models from {WHEEL_ABOUT}, once (offline: video2style models "
+                 "--wheel FILE first)")
     progress(f"samples: {len(videos)} video(s) ({', '.join(v.name for v in videos)}), "
         f"{len(clips)} clip(s) ({', '.join(c.name for c in clips)})")
     for video in videos:
         info = pose_file(video, out_dir / "pose" / f"{video.stem}.bvh", out_dir / "pose" / f"{video.stem}_pose.mp4", progress=False)
-        progress(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames, {info['fps']:.0f} frames/s), "
-            f"preview {info['preview']}")
+        progress(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames at {info['bvh_fps']:g} fps, "
+                 f"{info['bvh_seconds']:.2f} s; tracked at {info['fps']:.0f} video frames a second), "
+                 f"preview {info['preview']}")
     report = run_batch(samples, samples, out_dir, 0.5, progress=progress)
     progress(report.table())
     progress(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")

@@ -93,6 +93,7 @@ def pose_file(
         "span": (lifted.start, lifted.stop),
         "bvh_frames": lifted.motion.num_frames,
         "bvh_seconds": lifted.motion.duration,
+        "bvh_fps": lifted.motion.fps,
         "filled_frames": lifted.filled,
         "trajectory": info["trajectory"],
         "moving_ground": info["moving_ground"],

@@ -4,8 +4,9 @@ Browsers do not play the mp4v previews OpenCV writes, and no H.264 encoder ships
 depend on, so the page carries the joint positions instead: for each result a small script
 (``<clip>_player.js``, next to its BVH) with the content, the style example and the result as
 millimetre integers at the canonical frame rate, and one player script in the page that draws
-them side by side on a canvas — a still frame at once (the poster), then play / pause, scrubbing
-and orbiting (drag). Works from a folder opened as ``file://``, with no network.
+them side by side on a canvas — a still frame at once (the poster), then it plays, looping (not where
+the reader's system asks for reduced motion: there the first frame waits for play), with pause,
+scrubbing and orbiting (drag). Works from a folder opened as ``file://``, with no network.
 """
 from __future__ import annotations
 
@@ -82,7 +83,9 @@ function v2sPlayer(el, d) {
   cv.onpointerdown = e => { drag = [e.clientX, e.clientY]; cv.setPointerCapture(e.pointerId); };
   cv.onpointermove = e => { if (!drag) return; yaw += (e.clientX - drag[0]) / 150; pitch = Math.max(-0.2, Math.min(1.2, pitch + (e.clientY - drag[1]) / 150)); drag = [e.clientX, e.clientY]; draw(); };
   cv.onpointerup = () => { drag = null; };
-  draw();
+  draw();  // the first frame at once, with the play control beside it
+  const still = window.matchMedia && window.matchMedia('(prefers-reduced-motion: reduce)').matches;
+  if (!still) btn.onclick();  // then it plays, looping (a drawing: no sound), unless the reader asked for no motion
 }
 document.querySelectorAll('.player').forEach(el => { const d = (window.V2S || {})[el.dataset.key]; if (d) v2sPlayer(el, d); });
 """
