@@ -81,11 +81,11 @@ def test_learning_records_the_calibrated_amount(toys):  # noqa: F811 - the fixtu
     bundle, cache = toys
     data = MotionDataset(cache, "train")
     assert calibration_clips(data)  # the synthetic cache has a neutral walk
-    style, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    style, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(calibrate=True))
     amount = style.meta["amount"]
     assert set(amount) == {"gain", "target", "reached"} and GAIN_RANGE[0] <= amount["gain"] <= GAIN_RANGE[1]
     assert amount["target"] > 0 and style.gain == amount["gain"]
-    again, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    again, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(calibrate=True))
     assert again.meta["amount"] == amount  # seeded: the same amount
-    plain, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(calibrate=False))
+    plain, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())  # the default: gain 1
     assert "amount" not in plain.meta and plain.gain == 1.0

@@ -316,6 +316,8 @@ def cmd_learn(args) -> None:
         config = replace(config, iterations=args.iterations)
     if args.seed is not None:
         config = replace(config, seed=args.seed)
+    if args.calibrate:
+        config = replace(config, calibrate=True)
     if args.limb_guard is not None:
         apply_config = replace(apply_config, limb_guard=args.limb_guard)
     if args.posture is not None:
@@ -564,8 +566,9 @@ def cmd_evaluate(args) -> None:
             raise CliError(f"evaluate --dev-styles: no {missing[0]}")
         check_outputs([("-o", args.out), ("-o", args.out / "dev_styles.md"), ("-o", args.out / "dev_styles.json")],
                       [("--dev-styles", a) for a in archives])
+        calibrate = args.methods is not None and "ours-calibrated" in args.methods
         for line in evaluate_dev_styles(*archives, args.out, strength=0.5 if args.strengths is None else args.strengths[0],
-                                        seed=args.seed, style_cache=args.style_cache):
+                                        seed=args.seed, calibrate=calibrate, style_cache=args.style_cache):
             print(line)
         return
     inputs = _data_inputs(args.data) + [("the --park-weights file", args.park_weights),
@@ -766,6 +769,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "unless the style's config turns on lambda_s (default: from the file name)")
     lr.add_argument("--text", type=_style_text, help="what the person does, e.g. 'a person walks' (default: recognised)")
     lr.add_argument("-o", "--output", type=Path, help="style file (default: <input name>.v2s)")
+    lr.add_argument("--calibrate", action="store_true",
+                    help="scale the style so results differ from their content as much as the example differs from "
+                         "its neutral version (measured on neutral clips of other actions; more style, the action "
+                         "read less often: docs/RESULTS.md \"A style's amount follows its example\")")
     lr.add_argument("--iterations", type=_style_option("iterations"),
                     help=f"fine-tuning iterations: the budget, the same on any machine (default: {LearnConfig.iterations})")
     lr.add_argument("--max-seconds", type=_style_option("max_seconds"),

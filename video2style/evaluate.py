@@ -365,12 +365,12 @@ def plot_tradeoff(rows: list[dict], path: Path, title: str = "") -> Path:
 
 
 def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, strength: float = 0.5, seed: int = 0,
-                        calibrate: bool = True, style_cache: Path | None = None, progress=print) -> Iterator[str]:
+                        calibrate: bool = False, style_cache: Path | None = None, progress=print) -> Iterator[str]:
     """The second unseen-style protocol (:mod:`evaluation.dev_styles`): each of the five dev styles learned from
     its walk as ``learn`` learns (the shipped models, content from the dataset cache or the bank), applied as
     ``apply`` applies (:func:`transfer.apply.stylize_motion`) at ``strength`` to the neutral clip of each action;
-    writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate`` False: the
-    style as learned (gain 1, the ablation). ``style_cache``: a folder keeping the learned styles between runs."""
+    writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate``: each style
+    calibrated (:mod:`transfer.amount`; off: gain 1, the default). ``style_cache``: a folder keeping the learned styles between runs."""
     from evaluation.dev_styles import fit_judges, format_dev_table, read_archive, run_dev_protocol
     from transfer.apply import read_motion, stylize_motion
     from transfer.bundle import load_models
@@ -408,7 +408,7 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
 
     result = run_dev_protocol(transfer, clips, judges, progress=lambda s: progress(f"  {s}"))
     identity = run_dev_protocol(lambda s, e, a, c: c, clips, judges)
-    title = (f"dev styles at --strength {strength:g}{'' if calibrate else ', uncalibrated'}, seed {seed}; "
+    title = (f"dev styles at --strength {strength:g}{', calibrated' if calibrate else ''}, seed {seed}; "
              f"{time.time() - t0:.0f} s")
     table = format_dev_table(result, identity)
     out_dir = Path(out_dir)

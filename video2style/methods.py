@@ -4,7 +4,7 @@ docs/RESULTS.md; no two of them learn and apply alike). Plain data, so the comma
 
 VARIANTS = {
     "ours": {},
-    "ours-uncalibrated": {"calibrate": False},  # gain 1: the style as learned, before 2026-12-07 (transfer.amount)
+    "ours-calibrated": {"calibrate": True},  # the style's change times its calibrated gain (transfer.amount)
     # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
     # rows dated before 2026-12-02 14:00 in docs/RESULTS.md ran every variant below on top of these
     "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0, "decode": "rotations"},
