@@ -14,14 +14,14 @@ from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
-from transfer.apply import stylize_motion
 from transfer.bundle import load_models
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 from transfer.shipped import weights_path
+from transfer.spans import stylize_motion
+from video2style.clip_limits import check_frames, check_length
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
 BVH_SUFFIX = ".bvh"
-MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
 
 
 def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, settings: TextToMotion = TEXT_TO_MOTION,
@@ -111,17 +111,14 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     if rotate is not None:
         raise ValueError(f"{path}: --rotate turns a video's frames; this is not a video")
     motion, layout = read_bvh(path)
-    if motion.duration > MAX_CLIP_SECONDS:
-        raise ValueError(f"{path}: {motion.duration / 3600:.1f} hours long ({motion.num_frames} frames at {motion.fps:g} fps); "
-                         f"clips up to {MAX_CLIP_SECONDS / 3600:g} hours are taken: split it")
+    check_length(path, motion.num_frames, motion.fps)
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     if span != (None, None):
         motion = trim(motion, span, str(path))
     canon = to_canonical(resample(motion, CANONICAL.fps), rig)
     conformed = off_roll_convention(canon)
     canon = place_on_floor(conform_rolls(canon, force=conformed))
-    if canon.num_frames < 10:
-        raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
+    check_frames(path, canon.num_frames)
     return Clip(path, canon, rig, layout, motion, conformed)
 
 
@@ -312,15 +309,18 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     speed = resolve_tempo(style, tempo)
     from video2style.long_takes import LONG_TAKE_SECONDS, apply_long_bvh, is_long_take
 
-    long_take = is_long_take(path)
+    long_take = Path(path).suffix.lower() == BVH_SUFFIX and is_long_take(path)
     if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
-        return apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
+        info, shown = apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
+        if shown is not None:
+            info.update(_long_take_preview(style, Path(path), shown, info, Path(out_dir)))
+        info["seconds"] = time.time() - t0
+        return info
     clip = warp_clip(read_clip(path, joint_map), speed)
     result, decided = stylize_motion(load_models(model_device(model)), style, model, clip.canonical, strength, seed,
                                      neutralize)
     decided["tempo"] = speed
-    ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
-    extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
+    extra = example_panels(style, clip.canonical.num_frames)
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
             "rolls_conformed": clip.rolls_conformed}
     if long_take:
@@ -329,6 +329,30 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
+
+
+def example_panels(style, frames: int) -> list[tuple[Motion, str]]:
+    """The style example's preview panel beside a clip of ``frames`` frames, no longer than it (none without one)."""
+    ex = example_motion(style, frames)
+    return [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
+
+
+def _long_take_preview(style, path: Path, shown, info: dict, out_dir: Path) -> dict:
+    """The preview and player of a long take's first frames (``shown``: :class:`video2style.long_takes.Shown`;
+    :func:`write_preview`); when they fail, the take's output (``info["output"]``) goes with them."""
+    clip = Clip(path, shown.content, shown.rig, shown.layout)
+    made = [Path(info["output"])]
+    try:
+        preview = write_preview(clip, [(as_written(clip, shown.result, shown.written), "result")], out_dir,
+                                example_panels(style, shown.content.num_frames), made)
+    except BaseException:
+        for p in made:
+            p.unlink(missing_ok=True)
+        raise
+    if shown.content.num_frames < info["frames"]:
+        preview["preview_note"] = (f"the preview shows the first {shown.content.num_frames / CANONICAL.fps:g} s of "
+                                   f"{info['frames'] / CANONICAL.fps:.0f} s")
+    return preview
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
