@@ -19,7 +19,7 @@ from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, encode, facing_angle
 from motioncore.skating import motion_skating
-from transfer.apply import StyleStream, decoder, guard_features, neutral_caption
+from transfer.apply import READ_FRAMES, StyleStream, decoder, guard_features, neutral_caption
 from transfer.device import model_device
 
 
@@ -47,8 +47,9 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
                   seed: int = 0, neutralize: str = "auto", floor: torch.Tensor | None = None, span: int | None = None,
                   margin: int = 0, report: dict | None = None) -> Iterator[StyledSpan]:
     """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters)
-    to a canonical content motion of ``n`` frames, ``content(a, b)`` giving its frames ``a..b-1`` (each asked for
-    once, in order, a frame either side of a span: the features' velocities), with the models of ``bundle``
+    to a canonical content motion of ``n`` frames, ``content(a, b)`` giving its frames ``a..b-1`` (asked for
+    in order, a frame either side of a span for the features' velocities; the first 8 s again when the first
+    span is shorter), with the models of ``bundle``
     (:class:`transfer.bundle.MethodBundle`): the result's spans of ``span`` frames (None: one span, the whole
     motion) in order, each guarded, decoded and cleaned with ``margin`` frames either side (see the module's
     docstring). ``floor (4,)``: the foot joints' lowest heights over the whole motion (the contact channels; None:
@@ -70,8 +71,11 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
         feats = bundle.normalize(encode(part, floor=floor))[a - e0:b - e0]
         if stream is None:
             neutral_text, detected = None, None
-            if neutralize != "never":  # the reading is of the first 8 s (read_motion)
-                reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder, feats, neutralize)
+            if neutralize != "never":  # the reading is of the first 8 s (read_motion): a short first span's too
+                head = feats if feats.shape[0] >= min(n, READ_FRAMES) else \
+                    bundle.normalize(encode(content(0, min(n, READ_FRAMES + 40)), floor=floor))
+                reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder, head, neutralize)
+                del head
                 detected = reading.describe()
             report.update(detected=detected, neutralized=neutral_text is not None)
             stream = StyleStream(bundle, model, n, learned, config, strength, seed, neutral_text, shares=shares)
