@@ -299,7 +299,7 @@ def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0)
 
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
                joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
-    """:func:`transfer.apply.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
+    """:func:`transfer.spans.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
     ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview). ``tempo`` (see :func:`transfer.tempo.resolve_tempo`):
     the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same)."""
     from transfer.device import model_device
