@@ -339,4 +339,3 @@ def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict
     (:func:`motioncore.cleanup.cleanup_feet`); returns the motion and the foot-skating ratio before/after."""
     cleaned = cleanup_feet(motion, reference=content)
     return cleaned, {"skating_before": motion_skating(motion), "skating_after": motion_skating(cleaned)}
-
