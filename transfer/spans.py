@@ -37,10 +37,6 @@ class StyledSpan:
     result: Motion
     skating: dict
 
-    def kept(self, motion: Motion) -> Motion:
-        """Frames ``start..stop-1`` of ``content`` or ``result``."""
-        return motion.slice(self.start - self.lo, self.stop - self.lo)
-
 
 @torch.no_grad()
 def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n: int, strength: float = 0.5,
@@ -104,11 +100,10 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
             f_ext = bundle.denormalize(out.cpu(), inplace=d == n)
             raw = decoder(config, reference=ref, example=style.example)(f_ext, ref.fps, start_yaw=yaw, start_xz=xz)
             cleaned = cleanup_feet(raw, reference=ref, floor=floor)  # the content's own skating: a slide it passes on
-            done = StyledSpan(c, d, lo, ref, cleaned, {})
-            done.skating = {"skating_before": motion_skating(done.kept(raw)),
-                            "skating_after": motion_skating(done.kept(cleaned)),
-                            "skating_content": motion_skating(done.kept(ref))}
-            yield done
+            a0, a1 = c - lo, d - lo  # the span's own frames
+            yield StyledSpan(c, d, lo, ref, cleaned, {"skating_before": motion_skating(raw.slice(a0, a1)),
+                                                      "skating_after": motion_skating(cleaned.slice(a0, a1)),
+                                                      "skating_content": motion_skating(ref.slice(a0, a1))})
             c = d
             if c < n:
                 nxt = max(0, d - margin)  # the next span's context starts here: the root's state there
