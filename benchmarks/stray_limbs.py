@@ -5,7 +5,7 @@
     python benchmarks/stray_limbs.py ... --limb-guard 0     # without the apply-time guard (the ablation)
     python benchmarks/stray_limbs.py ... --guard-swing off  # the guard bends arms by two-bone IK (before)
 
-For each style x content clip, the result is made as ``apply`` makes it (:func:`transfer.apply.stylize_motion`),
+For each style x content clip, the result is made as ``apply`` makes it (:func:`transfer.spans.stylize_motion`),
 and for each hand and foot its time-mean place in the hips' facing frame (canonical body) is compared with the
 segment from the content's place to the example's (:func:`evaluation.metrics.limb_stray`, after the
 style's stray-limb guard: ``ApplyConfig.limb_guard``). Prints the stray of
@@ -39,7 +39,7 @@ def main() -> None:
 
     from evaluation.metrics import LIMBS, limb_stray
     from motioncore.representation import encode
-    from transfer.apply import stylize_motion
+    from transfer.spans import stylize_motion
     from transfer.bundle import load_models
     from transfer.style_file import Style, style_model
     from video2style.pipeline import learn_file, read_clip

@@ -69,7 +69,7 @@ def main() -> None:
 
     from evaluation.classifiers import default_weights, load_classifier, run_batched
     from motioncore.representation import decode, encode
-    from transfer.apply import stylize_motion
+    from transfer.spans import stylize_motion
     from transfer.bundle import load_models
     from transfer.dataset import MotionDataset
     from transfer.style_file import Style, style_model

@@ -78,6 +78,27 @@ def test_crossfade_takes_windows_as_they_come():
         crossfade(iter([]), [], 10)
 
 
+@pytest.mark.parametrize("pieces", [[333], [1, 79, 100, 153], [40] * 8 + [13], [200, 0, 133]])
+def test_window_stream_fed_in_pieces_blends_as_crossfade(pieces):
+    from transfer.windows import WindowStream
+
+    n, starts = 333, window_starts(333, 80, 20)
+    values = torch.randn(n, 5, generator=torch.Generator().manual_seed(4))
+    seen = []
+
+    def fn(batch, i):
+        seen.append((i, batch.shape[0]))
+        return [w * (1 + s) for w, s in zip(batch, starts[i:])]
+
+    stream, a, out = WindowStream(fn, n, 2), 0, []
+    for k in pieces:
+        out.append(stream.feed(values[a:a + k]))
+        a += k
+    want = crossfade([values[s:s + 80] * (1 + s) for s in starts], starts, n)
+    assert torch.equal(torch.cat(out), want)
+    assert seen == [(i, min(2, len(starts) - i)) for i in range(0, len(starts), 2)]  # the whole clip's batches
+
+
 def fit_inputs(frames: int = 23):
     """Targets (T, J, 3) from a random canonical motion, and a head rotation per frame (a leaf rotation)."""
     from motioncore.skeleton import CANONICAL

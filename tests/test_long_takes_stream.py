@@ -135,8 +135,9 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style
     from video2style.pipeline import apply_file
 
     style, model = style_and_model
-    monkeypatch.setitem(style.meta["config"], "limb_guard", 0.0)  # the stray-limb guard is the whole take's: not streamed
-    monkeypatch.setitem(style.meta["config"], "posture", 0.0)  # nor is the posture match
+    # the stray-limb guard and the posture match read each span's time means (45 frames here), not the whole take's
+    monkeypatch.setitem(style.meta["config"], "limb_guard", 0.0)
+    monkeypatch.setitem(style.meta["config"], "posture", 0.0)
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))  # 300 canonical frames: 5 windows
     monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 3 batches, finished across the spans' ends
@@ -158,6 +159,26 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style
     gap = (a.global_positions() - b.global_positions()).norm(dim=-1).max()
     assert gap < 0.0005, f"{100 * gap:.4f} cm"
     assert Path(streamed["preview"]).is_file() and Path(streamed["player"]).is_file()
+
+
+@shipped
+def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_model):
+    """One apply path (transfer.spans): a take streamed in one span, every guard on, is the whole-clip result."""
+    from video2style.pipeline import apply_file
+
+    style, model = style_and_model
+    clip = tmp_path / "take.bvh"
+    write_bvh(clip, _walk(450, 30.0))
+    whole = apply_file(style, model, clip, tmp_path / "whole", preview=False, neutralize="never")
+    monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)
+    monkeypatch.setattr(long_takes, "SPAN_FRAMES", 1_000)  # one span: the guards see what the whole clip's see
+    streamed = apply_file(style, model, clip, tmp_path / "streamed", preview=False, neutralize="never")
+    assert streamed["streamed"] == 1 and "each span on its own" in streamed["stream_note"]
+    for key in ("still_share", "arm_motion_share", "content_share", "rolls_conformed"):
+        assert streamed[key] == pytest.approx(whole[key], abs=1e-3), key
+    a, b = read_bvh(whole["output"])[0], read_bvh(streamed["output"])[0]
+    gap = (a.global_positions() - b.global_positions()).norm(dim=-1).max()
+    assert gap < 0.0005, f"{100 * gap:.4f} cm"
 
 
 @shipped

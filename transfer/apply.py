@@ -1,18 +1,19 @@
-"""Applying a learned style to canonical content motions of any length: what the motion encoder reads in a clip
-(:func:`read_motion`, :func:`neutral_caption`), the windowed editing of normalised features
-(:func:`apply_style_features`, the one place apply, batch, Ray and evaluation style features), how features become a
-motion (:func:`decoder`, the stray-limb guard), and a canonical motion styled whole (:func:`stylize_motion`)."""
+"""Applying a learned style to normalised features of any length: what the motion encoder reads in a clip
+(:func:`read_motion`, :func:`neutral_caption`), the windowed editing of normalised features (:class:`StyleStream`,
+whole or a span at a time) and the guards on its result (:func:`guard_features`), both in
+:func:`apply_style_features` (the one place evaluation styles features), and how features become a motion
+(:func:`decoder`, the stray-limb guard). A canonical motion is styled in spans by :mod:`transfer.spans`, the one
+apply path of apply, batch and Ray, for every length."""
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import torch
 
 from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
-from motioncore.representation import FEATURES, decode, encode, facing_angle
+from motioncore.representation import FEATURES, decode
 from motioncore.skating import motion_skating
 from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 from transfer.device import model_device
@@ -27,7 +28,7 @@ from transfer.posture import (
     posture_channels,
 )
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
-from transfer.windows import crossfade, crossfade_overlap, window_starts
+from transfer.windows import WindowStream, crossfade_overlap, window_starts
 
 # Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
 # Bandai val original has a top similarity >= 0.82 and P(content) >= 0.5 at the 5th percentile; foreign clips
@@ -151,22 +152,16 @@ def neutral_caption(motion_encoder, text_encoder, x: torch.Tensor, mode: str = "
     return reading, text_encoder.encode([content_caption(reading.content)])
 
 
-def _window_views(x: torch.Tensor, window: int, overlap: int) -> tuple[list[int], Callable[[int, int], torch.Tensor]]:
-    """``(starts, windows)``: ``windows(i, j)`` is windows ``i..j-1`` of ``x (T, D)`` as ``(j - i, L, D)``, copied
-    only when asked for (a long clip's windows are never all in memory at once)."""
+def _check_features(x: torch.Tensor) -> None:
     if x.ndim != 2 or x.shape[1] != FEATURES.dim:
         raise ValueError(f"expected features (T, {FEATURES.dim}), got {tuple(x.shape)}")
-    starts = window_starts(x.shape[0], window, overlap)
-    view = x.unfold(0, min(window, x.shape[0]), 1)  # (T - L + 1, D, L), a view of x
-    return starts, lambda i, j: view[starts[i:j]].transpose(1, 2)
 
 
-def _in_batches(fn, starts: list[int], windows: Callable[[int, int], torch.Tensor],
-                *extra: torch.Tensor) -> Iterator[torch.Tensor]:
-    """``fn(batch, *extra_batch)`` over :data:`WINDOW_BATCH` windows at a time, made as they are consumed; the
-    windows' results one by one (for :func:`transfer.windows.crossfade`, which keeps none of them)."""
-    for i in range(0, len(starts), WINDOW_BATCH):
-        yield from fn(windows(i, i + WINDOW_BATCH), *(e[i:i + WINDOW_BATCH] for e in extra))
+def _neutral_windows(prior, scheduler, n: int, text: torch.Tensor, learned: LearnConfig, generator: torch.Generator,
+                     step: int | None, window: int, overlap: int) -> WindowStream:
+    """:func:`transfer.edit.neutralize`'s windows over a motion of ``n`` frames under ``text (1, E)``."""
+    return WindowStream(lambda p, i: neutralize(prior, scheduler, p, text.expand(p.shape[0], -1), learned, generator, step),
+                        n, WINDOW_BATCH, window, overlap)
 
 
 @torch.no_grad()
@@ -177,11 +172,9 @@ def neutralize_windows(prior, scheduler, x: torch.Tensor, text: torch.Tensor, le
     default G), in ``window``-frame windows crossfaded over ``overlap`` (default:
     :func:`transfer.windows.crossfade_overlap`): the prior, trained on 80-frame windows, draws longer motion
     shuffling. A clip no longer than a window is drawn whole. ``x`` and ``text`` on the prior's device."""
+    _check_features(x)
     overlap = crossfade_overlap(window) if overlap is None else overlap
-    starts, windows = _window_views(x, window, overlap)
-    parts = _in_batches(lambda p, t: neutralize(prior, scheduler, p, t, learned, generator, step),
-                        starts, windows, text.expand(len(starts), -1))
-    return crossfade(parts, starts, x.shape[0])
+    return _neutral_windows(prior, scheduler, x.shape[0], text, learned, generator, step, window, overlap).feed(x)
 
 
 @torch.no_grad()
@@ -197,6 +190,42 @@ def neutralize_features(bundle, x: torch.Tensor, neutral_text: torch.Tensor, lea
                               config.neutralize_step, window, overlap).to(x.device)
 
 
+class StyleStream:
+    """The windows of :func:`apply_style_features` over normalised content features of a motion of ``n`` frames, fed
+    in order, a span at a time or whole: the neutral redraw first under ``neutral_text (1, E)`` when given
+    (:func:`neutralize_features`, seed ``seed + 1``), then the style model's (:func:`transfer.edit.stylize`, seed
+    ``seed``), each in ``window``-frame windows crossfaded over ``overlap`` (:class:`transfer.windows.WindowStream`:
+    the same windows, batches and noise however the motion is fed). ``config`` is the apply settings ``strength``
+    sets (:func:`transfer.style_config.strength_settings`); the still-pose guard's share of each window goes to
+    ``shares`` when a list is given. ``feed(x)`` (on ``model``'s device) returns ``(content, styled)``, the frames
+    now finished: what they were styled from (neutralised where it was) and the result before
+    :func:`guard_features`."""
+
+    def __init__(self, bundle, model, n: int, learned: LearnConfig, config: ApplyConfig, strength: float | None = None,
+                 seed: int = 0, neutral_text: torch.Tensor | None = None, window: int = 80, overlap: int | None = None,
+                 shares: list | None = None, gain: float = 1.0):
+        step, self.config = strength_settings(strength, learned, config, gain)
+        overlap = crossfade_overlap(window) if overlap is None else overlap
+        self.windows = []
+        if neutral_text is not None and self.config.neutralize_step > 0:
+            self.windows.append(_neutral_windows(bundle.prior, bundle.scheduler, n, neutral_text.to(model_device(model)),
+                                                 learned, torch.Generator().manual_seed(seed + 1),
+                                                 self.config.neutralize_step, window, overlap))
+        gen = torch.Generator().manual_seed(seed)
+        self.windows.append(WindowStream(lambda p, i: stylize(model, bundle.scheduler, p, learned, self.config, gen, step=step,
+                                                              prior=bundle.prior, shares=shares), n, WINDOW_BATCH, window, overlap))
+        self.pending = None  # content frames fed to the style's windows and not yet finished there
+
+    @torch.no_grad()
+    def feed(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        for w in self.windows[:-1]:
+            x = w.feed(x)
+        self.pending = x if self.pending is None else torch.cat([self.pending, x])
+        styled = self.windows[-1].feed(x)
+        content, self.pending = self.pending[:styled.shape[0]], self.pending[styled.shape[0]:]
+        return content, styled
+
+
 @torch.no_grad()
 def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, config: ApplyConfig,
                          strength: float | None = None, seed: int = 0, neutral_text: torch.Tensor | None = None,
@@ -207,34 +236,40 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
     ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
-    crossfaded over ``overlap`` (default: :func:`transfer.windows.crossfade_overlap`, 20). ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with ``config.posture``
-    above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when None), with
-    ``config.posture_between`` no further than between the content's and the example's means (:func:`posture_between`). ``example``
-    (the style example's raw features ``(T', D)``): with ``config.arm_gate`` above 0, an arm doing what the example's
-    never does keeps the content's motion (:func:`arm_gate`, :func:`gate_arms`); with ``config.arm_travel`` above 0,
-    the arms of a clip done in place keep its motion when the example travels (:func:`arm_motion_share`,
-    :func:`keep_arm_motion`; the share to ``report["arm_motion_share"]``; a bundle without the features'
-    normalisation, a test's toy one, has no ground speeds to read). With ``config.content_keep`` above 0
-    the change is scaled down where the motion encoder no longer reads the content's action (:func:`keep_content`;
-    a bundle without a motion encoder, a test's toy one, has none to read with); the share kept goes to
-    ``report["content_share"]`` when a dict is given, and the smallest share of the difference's fast part that the
-    still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) to ``report["still_share"]``. Runs on the models' device (``model``
-    and the prior on one); the result is on ``x``'s."""
-    step, config = strength_settings(strength, learned, config, gain)
-    overlap = crossfade_overlap(window) if overlap is None else overlap
-    device = model_device(model)
-    out_device, x = x.device, x.to(device)
-    if neutral_text is not None and config.neutralize_step > 0:
-        x = neutralize_features(bundle, x, neutral_text, learned, config, seed, window, overlap)
-    starts, windows = _window_views(x, window, overlap)
-    gen = torch.Generator().manual_seed(seed)
-    still: list[float] = []
-    chunks = _in_batches(lambda p: stylize(model, bundle.scheduler, p, learned, config, gen, step=step, prior=bundle.prior,
-                                           shares=None if report is None else still), starts, windows)
-    out = crossfade(chunks, starts, x.shape[0])
+    crossfaded over ``overlap`` (default: :func:`transfer.windows.crossfade_overlap`, 20; :class:`StyleStream`),
+    then guarded (:func:`guard_features`: ``posture_shift``, ``example``). The smallest share of the difference's
+    fast part that the still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) goes to
+    ``report["still_share"]`` when a dict is given, with what the guards report. Runs on the models' device
+    (``model`` and the prior on one); the result is on ``x``'s."""
+    _check_features(x)
+    still: list[float] | None = None if report is None else []
+    stream = StyleStream(bundle, model, x.shape[0], learned, config, strength, seed, neutral_text, window, overlap, still,
+                         gain)
+    out_device = x.device
+    x, out = stream.feed(x.to(model_device(model)))
     if report is not None and still:
         report["still_share"] = min(still)
-    amount = (1.0 if strength is None else 2.0 * strength) * gain  # of the example's posture change (0.5: all, calibrated)
+    return guard_features(bundle, out, x, stream.config, strength, posture_shift, example, report, gain).to(out_device)
+
+
+def guard_features(bundle, out: torch.Tensor, x: torch.Tensor, config: ApplyConfig, strength: float | None = None,
+                   posture_shift: torch.Tensor | None = None, example: torch.Tensor | None = None,
+                   report: dict | None = None, gain: float = 1.0) -> torch.Tensor:
+    """The guards on ``out (T, D)``, stylised from ``x (T, D)`` (both normalised; ``x`` neutralised where it was;
+    :class:`StyleStream`) by ``config`` (set by ``strength``): the whole of a clip's, or one span's of a long take
+    (each span read on its own). ``posture_shift`` (a style's, :class:`transfer.style_file.Style`): with
+    ``config.posture`` above 0, the result's time-mean change is drawn towards it (:func:`match_posture`; none when
+    None), with ``config.posture_between`` no further than between the content's and the example's means
+    (:func:`posture_between`). ``example`` (the style example's raw features ``(T', D)``): with ``config.arm_gate``
+    above 0, an arm doing what the example's never does keeps the content's motion (:func:`arm_gate`,
+    :func:`gate_arms`); with ``config.arm_travel`` above 0, the arms of a clip done in place keep its motion when the
+    example travels (:func:`arm_motion_share`, :func:`keep_arm_motion`; the share to ``report["arm_motion_share"]``;
+    a bundle without the features' normalisation, a test's toy one, has no ground speeds to read). With
+    ``config.content_keep`` above 0 the change is scaled down where the motion encoder no longer reads the
+    content's action (:func:`keep_content`; a bundle without a motion encoder, a test's toy one, has none to read
+    with); the share kept goes to ``report["content_share"]`` when a dict is given."""
+    amount = (1.0 if strength is None else 2.0 * strength) * gain  # of the example's posture change (0.5: all; ``gain``:
+    # the style's calibrated amount, transfer.amount)
     if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
         posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)), amount)
     if posture_shift is not None and config.posture > 0:
@@ -254,7 +289,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
                                   config.content_keep_top)
         if report is not None:
             report["content_share"] = share
-    return out.to(out_device)
+    return out
 
 
 def decoder(config: ApplyConfig, reference: Motion | None = None, example: torch.Tensor | None = None):
@@ -307,37 +342,3 @@ def cleanup_feet_measured(motion: Motion, content: Motion) -> tuple[Motion, dict
     (:func:`motioncore.cleanup.cleanup_feet`); returns the motion and the foot-skating ratio before/after."""
     cleaned = cleanup_feet(motion, reference=content)
     return cleaned, {"skating_before": motion_skating(motion), "skating_after": motion_skating(cleaned)}
-
-
-def stylize_motion(bundle, style, model, content_motion: Motion, strength: float = 0.5, seed: int = 0,
-                   neutralize: str = "auto") -> tuple[Motion, dict]:
-    """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters,
-    :func:`transfer.style_file.style_model`) to a canonical content motion (canonical fps; ``T`` frames) with the
-    models of ``bundle`` (:class:`transfer.bundle.MethodBundle`): the stylised canonical motion, ``T`` frames on the
-    same path. Stray limbs are drawn back (``limb_guard`` of the style's config, :func:`guard_stray_limbs`), then
-    the feet cleaned against the content (:func:`cleanup_feet_measured`).
-
-    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
-    auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
-    what was decided (``detected``, ``neutralized``, ``content_share`` where the content keeper ran, ``still_share``
-    where the difference mode ran) with the foot-skating ratios before and after cleanup and of
-    the content itself. Runs on ``model``'s device (the bundle's models there too); the motion and the result are
-    on the CPU."""
-    learned, config = style.configs()
-    neutral_text, detected = None, None
-    if neutralize != "never":
-        reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder,
-                                                bundle.normalize(encode(content_motion)), neutralize)
-        detected = reading.describe()
-    # one (T, D) copy at a time where it can be: the unnormalised features are not kept, the result is scaled in place
-    report: dict = {}
-    out = apply_style_features(bundle, model, bundle.normalize(encode(content_motion)), learned, config, strength, seed,
-                               neutral_text, posture_shift=style.posture_shift, example=style.example, report=report,
-                               gain=style.gain)
-    out = bundle.denormalize(out, inplace=True)
-    p0 = content_motion.global_positions()[:1].double()
-    raw = decoder(config, reference=content_motion, example=style.example)(out, content_motion.fps, start_yaw=float(facing_angle(p0)[0]),
-                                                                   start_xz=(float(p0[0, 0, 0]), float(p0[0, 0, 2])))
-    result, ratios = cleanup_feet_measured(raw, content_motion)  # the content's own ratio: a slide it passes on
-    return result, {"detected": detected, "neutralized": neutral_text is not None, **ratios,
-                    "skating_content": motion_skating(content_motion), **report}

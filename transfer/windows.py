@@ -2,7 +2,7 @@
 import: both the diffusion method and Park et al.'s stylizer use them)."""
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import torch
 
@@ -44,6 +44,68 @@ def crossfade(chunks: Iterable[torch.Tensor], starts: list[int], n: int) -> torc
     if out is None:
         raise ValueError(f"crossfade: expected at least one window, got none for {n} frames")
     return out.div_(total.clamp_min_(1e-6))  # in place: no second (n, D) copy
+
+
+class WindowStream:
+    """The windows of a motion of ``n`` frames (:func:`window_starts`), run on its features fed in order, a span at
+    a time or all at once: ``feed(x)`` takes the next frames ``(k, D)`` and returns the frames now finished (every
+    window over them blended as :func:`crossfade` blends them; fed whole, the same tensor). ``fn(windows (B, L, D),
+    i)`` gives the results of windows ``i..i+B-1``, ``batch`` at a time from the first, so noise drawn in order from
+    one generator is the same noise however the motion is fed; the windows are views of the frames fed (copied
+    only when a batch is made), so a long motion's windows are never all in memory at once."""
+
+    def __init__(self, fn: Callable[[torch.Tensor, int], Iterable[torch.Tensor]], n: int, batch: int,
+                 window: int = 80, overlap: int = 20):
+        self.fn, self.n, self.batch = fn, n, batch
+        self.starts = window_starts(n, window, overlap)
+        self.length = min(window, n)
+        self.inbuf, self.in0 = None, 0  # input frames from in0 on
+        self.acc, self.tot, self.out0 = None, None, 0  # blend of frames out0.. (not yet finished)
+        self.i, self.prev_end = 0, 0
+
+    def feed(self, x: torch.Tensor) -> torch.Tensor:
+        self.inbuf = x if self.inbuf is None else torch.cat([self.inbuf, x])
+        in_end = self.in0 + self.inbuf.shape[0]
+        self._grow(x, in_end - self.out0)  # once per feed: no window added now ends past in_end
+        view = self.inbuf.unfold(0, self.length, 1) if self.inbuf.shape[0] >= self.length else None  # (k, D, L)
+        while self.i < len(self.starts):
+            j = min(self.i + self.batch, len(self.starts))
+            if self.starts[j - 1] + self.length > in_end:
+                break
+            starts = self.starts[self.i:j]
+            part = view[[s - self.in0 for s in starts]].transpose(1, 2)
+            for chunk, s in zip(self.fn(part, self.i), starts):
+                self._add(chunk, s)
+            self.i = j
+        done = self.starts[self.i] if self.i < len(self.starts) else self.n
+        if self.i < len(self.starts):  # the inputs before the next window are no longer needed
+            self.inbuf, self.in0 = self.inbuf[done - self.in0:], done
+        if done <= self.out0:
+            return x.new_zeros(0, x.shape[1])
+        k = done - self.out0
+        out = self.acc[:k].div_(self.tot[:k].clamp_min_(1e-6))  # in place: no second copy of the blend
+        self.acc, self.tot, self.out0 = self.acc[k:], self.tot[k:], done
+        return out
+
+    def _grow(self, x: torch.Tensor, rows: int) -> None:
+        """The blend holds at least ``rows`` frames from out0 on (new frames: zero)."""
+        if self.acc is None:  # float32 on the frames' device, as crossfade's
+            self.acc, self.tot = torch.zeros(rows, x.shape[-1], device=x.device), torch.zeros(rows, 1, device=x.device)
+        elif rows > self.acc.shape[0]:
+            grow = rows - self.acc.shape[0]
+            self.acc = torch.cat([self.acc, torch.zeros(grow, x.shape[-1], device=x.device)])
+            self.tot = torch.cat([self.tot, torch.zeros(grow, 1, device=x.device)])
+
+    def _add(self, chunk: torch.Tensor, s: int) -> None:
+        length = chunk.shape[0]
+        w = torch.ones(length, device=chunk.device)
+        if s > 0:  # ramp in over the overlap with the previous window (as crossfade)
+            ramp = max(1, self.prev_end - s)
+            w[:ramp] = torch.linspace(0, 1, ramp + 2, device=chunk.device)[1:-1]
+        a = s - self.out0
+        self.acc[a:a + length] += chunk * w[:, None]
+        self.tot[a:a + length] += w[:, None]
+        self.prev_end = max(self.prev_end, s + length)
 
 
 def typical_window(x: torch.Tensor, length: int, hop: int) -> int:

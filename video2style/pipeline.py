@@ -14,14 +14,14 @@ from motioncore.motion import Motion, resample, time_warp, trim
 from motioncore.representation import decode, encode
 from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_canonical
 from motioncore.skeleton import CANONICAL
-from transfer.apply import stylize_motion
 from transfer.bundle import load_models
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 from transfer.shipped import weights_path
+from transfer.spans import stylize_motion
+from video2style.clip_limits import check_frames, check_length
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
 BVH_SUFFIX = ".bvh"
-MAX_CLIP_SECONDS = 6 * 3600.0  # longer takes (or a frame time that stretches a small file over days) are refused
 
 
 def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, settings: TextToMotion = TEXT_TO_MOTION,
@@ -111,17 +111,14 @@ def read_clip(path: Path, joint_map: dict | None = None, progress=None,
     if rotate is not None:
         raise ValueError(f"{path}: --rotate turns a video's frames; this is not a video")
     motion, layout = read_bvh(path)
-    if motion.duration > MAX_CLIP_SECONDS:
-        raise ValueError(f"{path}: {motion.duration / 3600:.1f} hours long ({motion.num_frames} frames at {motion.fps:g} fps); "
-                         f"clips up to {MAX_CLIP_SECONDS / 3600:g} hours are taken: split it")
+    check_length(path, motion.num_frames, motion.fps)
     rig = make_rig(motion.skeleton, motion, joint_map, source=str(path))
     if span != (None, None):
         motion = trim(motion, span, str(path))
     canon = to_canonical(resample(motion, CANONICAL.fps), rig)
     conformed = off_roll_convention(canon)
     canon = place_on_floor(conform_rolls(canon, force=conformed))
-    if canon.num_frames < 10:
-        raise ValueError(f"{path}: too short ({canon.num_frames} frames at {CANONICAL.fps:g} fps; need at least 10)")
+    check_frames(path, canon.num_frames)
     return Clip(path, canon, rig, layout, motion, conformed)
 
 
@@ -226,18 +223,8 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     if Path(path).suffix.lower() in VIDEO_SUFFIXES:
         _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
-    read, src = clip.canonical, clip.source  # what each number is: the file's own frames, then the canonical ones
-    if src is not None:
-        length = f"{src.duration:.2f} s: {src.num_frames} frames at {src.fps:g} fps in the file"
-    elif span == (None, None):  # a video, whole: its own frames (tracking may start where the person is first seen)
-        from lifting.video import video_info
-
-        fps, frames, _, _ = video_info(Path(path))
-        length = f"{frames / fps:.2f} s: {frames} frames at {fps:g} fps in the video"
-    else:
-        length = f"{read.duration:.2f} s of motion tracked"
-    progress(f"      {length} ({read.num_frames} frames at {read.fps:g} fps on the canonical skeleton; read in "
-             f"{elapsed(t0)})" + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
+    progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})"
+             + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
     m = load_models(device)
     features = m.normalize(encode(clip.canonical), inplace=True)  # in place: a long take's features once
     bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
@@ -248,17 +235,11 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s {where} ({clip.canonical.duration:.0f} s read): "
                  f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
     example = m.normalize(encode(canonical))
-    confident = True  # the content: given, or recognised with confidence (else a guess, said as one)
     if text is None:
         reading = read_motion(m.motion_encoder, m.text_encoder, example)
-        text, confident = reading.content, bool(reading.confident)
-        if confident:
-            progress(f"[2/4] content by retrieval: {reading.content!r} (nearest captions {reading.top[0][0]!r}, "
-                     f"{reading.top[1][0]!r}; confident)")
-        else:
-            progress(f"[2/4] content not recognised with confidence: learning against the closest guess "
-                     f"{reading.content!r} (nearest captions {reading.top[0][0]!r}, {reading.top[1][0]!r}); "
-                     "give --text to say what the person does")
+        text = reading.content
+        progress(f"[2/4] content by retrieval: {reading.content!r} (nearest captions {reading.top[0][0]!r}, "
+                 f"{reading.top[1][0]!r}; {'confident' if reading.confident else 'not confident: give --text'})")
     else:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
@@ -282,11 +263,10 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     style.meta["base_model_sha256"] = file_sha256(m.prior_path) if m.prior_path else None
     style.meta.update({"source": Path(path).name, "example_seconds": round(canonical.duration, 2),
                        "span": list(span), "example_part": [round(t, 2) for t in used], "partial": partial,
-                       "tempo": tempo, "content_confident": confident})
+                       "tempo": tempo})
     progress(f"[4/4] writing {out_path}")
     style.save(out_path)
-    return {"style": style_words, "content": style.meta["content"], "content_confident": confident,
-            "seconds": time.time() - t0,
+    return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
             "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size, "partial": partial}
 
 
@@ -324,7 +304,7 @@ def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0)
 
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
                joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
-    """:func:`transfer.apply.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
+    """:func:`transfer.spans.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
     ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview). ``tempo`` (see :func:`transfer.tempo.resolve_tempo`):
     the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same)."""
     from transfer.device import model_device
@@ -334,28 +314,50 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
     speed = resolve_tempo(style, tempo)
     from video2style.long_takes import LONG_TAKE_SECONDS, apply_long_bvh, is_long_take
 
-    long_take = is_long_take(path)
+    long_take = Path(path).suffix.lower() == BVH_SUFFIX and is_long_take(path)
     if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
-        return apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
+        info, shown = apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
+        if shown is not None:
+            info.update(_long_take_preview(style, Path(path), shown, info, Path(out_dir)))
+        info["seconds"] = time.time() - t0
+        return info
     clip = warp_clip(read_clip(path, joint_map), speed)
     result, decided = stylize_motion(load_models(model_device(model)), style, model, clip.canonical, strength, seed,
                                      neutralize)
     decided["tempo"] = speed
-    ex = example_motion(style, clip.canonical.num_frames)  # the panel no longer than the clip
-    extra = [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
-    from video2style.summary import motion_change
-
+    extra = example_panels(style, clip.canonical.num_frames)
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
-            "rolls_conformed": clip.rolls_conformed, "change": motion_change(clip.canonical, result),
-            # the written file's own length (a BVH's frames and frame rate; a video's result is canonical)
-            "file_frames": clip.canonical.num_frames if clip.source is None else clip.source.num_frames,
-            "file_fps": (clip.canonical if clip.source is None else clip.source).fps}
+            "rolls_conformed": clip.rolls_conformed}
     if long_take:
         info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
                                "applied a span at a time only at --tempo 1; memory grows with this take")
     info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
     info["seconds"] = time.time() - t0
     return info
+
+
+def example_panels(style, frames: int) -> list[tuple[Motion, str]]:
+    """The style example's preview panel beside a clip of ``frames`` frames, no longer than it (none without one)."""
+    ex = example_motion(style, frames)
+    return [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
+
+
+def _long_take_preview(style, path: Path, shown, info: dict, out_dir: Path) -> dict:
+    """The preview and player of a long take's first frames (``shown``: :class:`video2style.long_takes.Shown`;
+    :func:`write_preview`); when they fail, the take's output (``info["output"]``) goes with them."""
+    clip = Clip(path, shown.content, shown.rig, shown.layout)
+    made = [Path(info["output"])]
+    try:
+        preview = write_preview(clip, [(as_written(clip, shown.result, shown.written), "result")], out_dir,
+                                example_panels(style, shown.content.num_frames), made)
+    except BaseException:
+        for p in made:
+            p.unlink(missing_ok=True)
+        raise
+    if shown.content.num_frames < info["frames"]:
+        preview["preview_note"] = (f"the preview shows the first {shown.content.num_frames / CANONICAL.fps:g} s of "
+                                   f"{info['frames'] / CANONICAL.fps:.0f} s")
+    return preview
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),

@@ -1,0 +1,176 @@
+"""A canonical content motion styled a span of frames at a time: the one apply path for every length. A clip held
+in memory is one span (:func:`stylize_motion`); a long BVH take is read, styled and written a span at a time, with
+memory that does not grow with the take (:mod:`video2style.long_takes`, issue 25).
+
+The diffusion windows run over the whole motion fed in order (:class:`transfer.apply.StyleStream`: the same starts,
+batches and noise however it is fed, each window's crossfade finished across a span's end). Each span is then
+guarded (:func:`transfer.apply.guard_features`), decoded with its stray limbs drawn back (:func:`transfer.apply.decoder`)
+and its feet cleaned, seeing ``margin`` frames either side. The guards read time means and the encoder's reading
+of what they see, so a span of a long take is guarded on its own: its posture, arm hold and content share are its
+span's (5 minutes by default), not the whole take's."""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import torch
+
+from motioncore.cleanup import cleanup_feet
+from motioncore.motion import Motion
+from motioncore.representation import FEATURES, encode, facing_angle
+from motioncore.skating import motion_skating
+from transfer.apply import READ_FRAMES, StyleStream, decoder, guard_features, neutral_caption
+from transfer.device import model_device
+
+
+@dataclass
+class StyledSpan:
+    """Frames ``start..stop-1`` of a styled motion, finished, with the frames around them from ``lo`` on that the
+    guards, the decode and the foot cleanup saw: the ``content`` and the ``result`` (feet cleaned) of those frames,
+    and the foot-skating ratios of frames ``start..stop-1`` (``skating_before`` and ``skating_after`` the cleanup,
+    ``skating_content``)."""
+
+    start: int
+    stop: int
+    lo: int
+    content: Motion
+    result: Motion
+    skating: dict
+
+
+@torch.no_grad()
+def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n: int, strength: float = 0.5,
+                  seed: int = 0, neutralize: str = "auto", floor: torch.Tensor | None = None, span: int | None = None,
+                  margin: int = 0, report: dict | None = None) -> Iterator[StyledSpan]:
+    """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters)
+    to a canonical content motion of ``n`` frames, ``content(a, b)`` giving its frames ``a..b-1`` (asked for
+    in order, a frame either side of a span for the features' velocities; the first 8 s again when the first
+    span is shorter), with the models of ``bundle``
+    (:class:`transfer.bundle.MethodBundle`): the result's spans of ``span`` frames (None: one span, the whole
+    motion) in order, each guarded, decoded and cleaned with ``margin`` frames either side (see the module's
+    docstring). ``floor (4,)``: the foot joints' lowest heights over the whole motion (the contact channels; None:
+    each span's own). ``neutralize``: auto (only when the motion encoder reads the first span's start, 8 s, as a
+    styled clip confidently), always or never. ``report`` receives ``detected`` and ``neutralized``, then with each
+    span the smallest ``still_share``, ``arm_motion_share`` and ``content_share`` so far. On ``model``'s device
+    (the bundle's models there too); the motions are on the CPU."""
+    learned, config = style.configs()
+    span = n if span is None else max(int(span), 2 * margin + 2)
+    device = model_device(model)
+    report = {} if report is None else report
+    content_buf, feats_buf, styled_buf = _Buffer(), _Buffer(), _Buffer()  # content; normalised content, styled
+    shares: list[float] = []
+    stream, state, c = None, None, 0  # state: the decode's start (frame, yaw, xz); c: the next frame to finish
+    for a in range(0, n, span):
+        b = min(n, a + span)
+        e0, e1 = max(0, a - 1), min(n, b + 1)
+        part = content(e0, e1)
+        feats = bundle.normalize(encode(part, floor=floor))[a - e0:b - e0]
+        if stream is None:
+            neutral_text, detected = None, None
+            if neutralize != "never":  # the reading is of the first 8 s (read_motion): a short first span's too
+                head = feats if feats.shape[0] >= min(n, READ_FRAMES) else \
+                    bundle.normalize(encode(content(0, min(n, READ_FRAMES + 40)), floor=floor))
+                reading, neutral_text = neutral_caption(bundle.motion_encoder, bundle.text_encoder, head, neutralize)
+                del head
+                detected = reading.describe()
+            report.update(detected=detected, neutralized=neutral_text is not None)
+            stream = StyleStream(bundle, model, n, learned, config, strength, seed, neutral_text, shares=shares,
+                                 gain=style.gain)
+            p0 = part.global_positions()[:1].double()
+            state = (0, float(facing_angle(p0)[0]), (float(p0[0, 0, 0]), float(p0[0, 0, 2])))
+        content_buf.append(part.slice(a - e0, b - e0))
+        del part
+        x, styled = stream.feed(feats.to(device))
+        feats_buf.append(x)
+        styled_buf.append(styled)
+        while c < n and styled_buf.end >= min(n, c + span + margin):
+            d = min(n, c + span)
+            lo, hi = max(0, c - margin), min(n, d + margin)
+            g, yaw, xz = state
+            if g != lo:
+                raise RuntimeError(f"spans: the decode's start is frame {g}, expected {lo}")
+            ref = content_buf.get(lo, hi)
+            guarded: dict = {}
+            out = guard_features(bundle, styled_buf.get(lo, hi), feats_buf.get(lo, hi), stream.config, strength,
+                                 style.posture_shift, style.example, guarded, style.gain)
+            if shares:
+                report["still_share"] = min(shares)
+            for key, value in guarded.items():
+                report[key] = min(value, report.get(key, value))
+            # in place where no later span reads these frames (the last): one copy of a clip's features at a time
+            f_ext = bundle.denormalize(out.cpu(), inplace=d == n)
+            raw = decoder(config, reference=ref, example=style.example)(f_ext, ref.fps, start_yaw=yaw, start_xz=xz)
+            cleaned = cleanup_feet(raw, reference=ref, floor=floor)  # the content's own skating: a slide it passes on
+            a0, a1 = c - lo, d - lo  # the span's own frames
+            yield StyledSpan(c, d, lo, ref, cleaned, {"skating_before": motion_skating(raw.slice(a0, a1)),
+                                                      "skating_after": motion_skating(cleaned.slice(a0, a1)),
+                                                      "skating_content": motion_skating(ref.slice(a0, a1))})
+            c = d
+            if c < n:
+                nxt = max(0, d - margin)  # the next span's context starts here: the root's state there
+                i = nxt - lo
+                yaw = yaw + float(f_ext[:i, FEATURES.root_rvel][:, 0].double().sum())
+                state = (nxt, yaw, (float(raw.lpos[i, 0, 0]), float(raw.lpos[i, 0, 2])))
+                for buf in (content_buf, feats_buf, styled_buf):
+                    buf.drop(nxt)
+
+
+def stylize_motion(bundle, style, model, content_motion: Motion, strength: float = 0.5, seed: int = 0,
+                   neutralize: str = "auto") -> tuple[Motion, dict]:
+    """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters,
+    :func:`transfer.style_file.style_model`) to a canonical content motion (canonical fps; ``T`` frames) with the
+    models of ``bundle`` (:class:`transfer.bundle.MethodBundle`): the stylised canonical motion, ``T`` frames on the
+    same path (:func:`stylize_spans`, one span). Stray limbs are drawn back (``limb_guard`` of the style's config,
+    :func:`transfer.apply.guard_stray_limbs`), then the feet cleaned against the content
+    (:func:`motioncore.cleanup.cleanup_feet`).
+
+    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
+    auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
+    what was decided (``detected``, ``neutralized``, ``content_share`` where the content keeper ran, ``still_share``
+    where the difference mode ran) with the foot-skating ratios before and after cleanup and of
+    the content itself. Runs on ``model``'s device (the bundle's models there too); the motion and the result are
+    on the CPU."""
+    report: dict = {}
+    (whole,) = stylize_spans(bundle, style, model, content_motion.slice, content_motion.num_frames, strength, seed,
+                             neutralize, report=report)
+    decided = {"detected": report.pop("detected"), "neutralized": report.pop("neutralized")}
+    return whole.result, {**decided, **whole.skating, **report}
+
+
+class _Buffer:
+    """Frames of a motion from ``start`` to ``end``: tensors ``(k, D)`` or canonical motions, appended in order,
+    dropped from the front."""
+
+    def __init__(self):
+        self.parts, self.start, self.end = [], 0, 0
+
+    def append(self, x) -> None:
+        k = x.num_frames if isinstance(x, Motion) else x.shape[0]
+        if k:
+            self.parts.append(x)
+            self.end += k
+
+    def get(self, lo: int, hi: int):
+        if lo < self.start or hi > self.end:
+            raise RuntimeError(f"spans: frames {lo}-{hi} asked of {self.start}-{self.end}")
+        whole = self._joined()
+        off = self.start
+        return whole.slice(lo - off, hi - off) if isinstance(whole, Motion) else whole[lo - off:hi - off]
+
+    def drop(self, before: int) -> None:
+        if before <= self.start:
+            return
+        whole = self._joined()
+        k = before - self.start
+        if isinstance(whole, Motion):
+            self.parts = [Motion(whole.skeleton, whole.lrot[k:].clone(), whole.lpos[k:].clone(), whole.fps)]
+        else:
+            self.parts = [whole[k:].clone()]
+        self.start = before
+
+    def _joined(self):
+        if len(self.parts) > 1:
+            p = self.parts
+            self.parts = [Motion(p[0].skeleton, torch.cat([q.lrot for q in p]), torch.cat([q.lpos for q in p]), p[0].fps)
+                          if isinstance(p[0], Motion) else torch.cat(p)]
+        return self.parts[0]
