@@ -148,17 +148,18 @@ def plan(videos_dir: Path, content_dir: Path, out_dir: Path | None = None,
     keys = video_keys(videos)
     if out_dir is not None:
         check_batch_outputs(videos_dir, content_dir, out_dir, list(keys.values()))
-    from video2style.interchange import find_clip_files
+    from video2style.interchange import find_clip_files, result_suffixes
 
     protected: list[Path] = []
-    clips = sorted(content_clips(content_dir, out_dir, progress, protected=protected) + find_clip_files(content_dir, out_dir))
+    clips = sorted(content_clips(content_dir, out_dir, progress, protected=protected)
+                   + find_clip_files(content_dir, out_dir, protected=protected))
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips (nor .fbx, .glb, .gltf)")
     if out_dir is not None:  # and no folder a result goes to is reached through a link planted in -o
         check_no_links(out_dir, {out_dir / key / c.relative_to(content_dir).parent for key in keys.values() for c in clips})
     if protected:  # the user's clips inside -o: no result may land on one
         check_outputs([("-o", out_dir / key / c.relative_to(content_dir).parent / f"{c.stem}{end}") for key in keys.values()
-                       for c in clips for end in (".bvh", "_preview.mp4", "_player.js")],
+                       for c in clips for end in (*result_suffixes(c), "_preview.mp4", "_player.js")],
                       [("a clip in the --content folder", c) for c in protected])
     return videos, clips, keys
 

@@ -5,6 +5,7 @@ Run ``video2style COMMAND --help`` for each command's options and examples.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -340,11 +341,13 @@ def cmd_learn(args) -> None:
           f"{summary['iterations']} iterations -> {out} ({summary['bytes'] / 1024:.0f} KiB)")
 
 
-def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = ()) -> list[tuple[Path, Path]]:
+def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = (),
+                fmt: str | None = None) -> list[tuple[Path, Path]]:
     """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``; results in it
     are not taken as clips (:func:`video2style.pipeline.content_clips`). Refused before any work: two clips that
     would write the same output, and outputs that would overwrite an input (a clip, its folder, or ``others``:
-    ``(what, path)`` of the other files read)."""
+    ``(what, path)`` of the other files read), or a clip of the user's already in a folder no run of ours wrote
+    (:func:`users_clips_in_the_way`). ``fmt``: ``--format`` (results in that format; None: each clip's own)."""
     from video2style.pipeline import content_clips
 
     files, protected = [], []
@@ -356,7 +359,8 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
             files.append((p, out_dir))
     from video2style.interchange import find_clip_files
 
-    files += [(q, out_dir / q.relative_to(p).parent) for p in paths if p.is_dir() for q in find_clip_files(p, out_dir)]
+    files += [(q, out_dir / q.relative_to(p).parent) for p in paths if p.is_dir()
+              for q in find_clip_files(p, out_dir, protected=protected)]
     if not files:
         raise CliError("apply: no BVH files (nor FBX/glTF clips) found in the inputs")
     seen: dict[Path, Path] = {}
@@ -366,14 +370,38 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
             raise CliError(f"apply: {seen[target]} and {clip} would both write {target}; give their folder "
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
-    outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files for end in (".bvh", "_preview.mp4", "_player.js")]
+    check_no_links(out_dir, dict.fromkeys(where for _, where in files))
+    from video2style.interchange import result_suffixes
+
+    outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files
+               for end in (*result_suffixes(clip, fmt), "_preview.mp4", "_player.js")]
     folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
     check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
                                                                      for clip, _ in files] + list(others)
-                  + [("a clip in the input folder", clip) for clip in protected])
-    check_no_links(out_dir, dict.fromkeys(where for _, where in files))
+                  + [("a clip in the input folder", clip) for clip in protected]
+                  + [("a clip of yours in a folder no run of video2style wrote", p)
+                     for p in users_clips_in_the_way(path for _, path in outputs)])
     return files
+
+
+def users_clips_in_the_way(outputs) -> list[Path]:
+    """The clip files (BVH, FBX, glTF) among ``outputs`` that exist already in a folder no run of ours has held
+    (no ``.video2style.lock`` in it or above): the user's own, which a result must never replace."""
+    from video2style.interchange import CLIP_SUFFIXES
+    from video2style.paths import LOCK_NAME
+
+    found, ours = [], {}
+    for path in outputs:
+        path = Path(path)
+        if path.suffix.lower() not in {".bvh", *CLIP_SUFFIXES} or not os.path.lexists(path):
+            continue
+        folder = path.parent
+        if folder not in ours:
+            ours[folder] = any((q / LOCK_NAME).exists() for q in [folder, *Path(os.path.abspath(folder)).parents])
+        if not ours[folder]:
+            found.append(path)
+    return found
 
 
 def cmd_apply(args) -> None:
@@ -440,7 +468,8 @@ def _diffusion_runner(args, joint_map):
     style = Style.load(args.style)
     if args.tempo not in ("off", "auto"):
         resolve_tempo(style, args.tempo)  # a bad number: one line before any work (before the models load)
-    files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
+    files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)],
+                        getattr(args, "format", None))
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
@@ -465,7 +494,8 @@ def _park_runner(args, joint_map):
         raise CliError("apply --method park: give --domain (one of the style domains, e.g. elderly)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
     files = _bvh_inputs(inputs, args.output, [("the --joint-map", args.joint_map), ("the --reference clip", args.reference),
-                                              ("the --park-weights file", args.park_weights)])
+                                              ("the --park-weights file", args.park_weights)],
+                        getattr(args, "format", None))
     model = park_model(args.park_weights, args.device)
     request = ParkRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))

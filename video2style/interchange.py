@@ -327,18 +327,30 @@ def add_arguments(parser, formats: bool = False) -> None:
                                  "the input file's mesh, skin and bones; needs Blender, see README)")
 
 
-def find_clip_files(folder: str | os.PathLike, out_dir: str | os.PathLike | None = None) -> list[Path]:
+def find_clip_files(folder: str | os.PathLike, out_dir: str | os.PathLike | None = None, *,
+                    protected: list | None = None) -> list[Path]:
     """The FBX/glTF files in ``folder`` and its subfolders (any case of the suffix), sorted; results left out as
     :func:`video2style.pipeline.content_clips` leaves them: those in ``out_dir`` and in any subfolder holding
-    an earlier run's lock file."""
+    an earlier run's lock file. ``protected``, a list, receives the files left out that no run of ours wrote (in
+    ``out_dir`` before it was ever locked): the user's, which no output may overwrite."""
     from video2style.paths import LOCK_NAME, inside, same_path
 
     folder = Path(folder)
     found = [p for p in folder.rglob("*") if p.suffix.lower() in CLIP_SUFFIXES and p.is_file()]
-    results = [lock.parent for lock in folder.rglob(LOCK_NAME) if lock.parent != folder]
+    marked = [lock.parent for lock in folder.rglob(LOCK_NAME) if lock.parent != folder]
+    results = list(marked)
     if out_dir is not None and inside(out_dir, folder) and not same_path(out_dir, folder):
         results.append(Path(out_dir))
+    if protected is not None:
+        protected += [p for p in found if any(inside(p, r) for r in results) and not any(inside(p, r) for r in marked)]
     return sorted(p for p in found if not any(inside(p, r) for r in results))
+
+
+def result_suffixes(clip: str | os.PathLike, fmt: str | None = None) -> tuple[str, ...]:
+    """The suffixes of the result files a run writes for ``clip``: ``.bvh`` (a BVH result, or the BVH step's own
+    beside an FBX/glTF one) and the result's format (``fmt``, else the clip's own)."""
+    suffix = output_suffix(clip, fmt) if (is_clip_file(clip) or fmt) else ".bvh"
+    return tuple(dict.fromkeys((".bvh", suffix)))
 
 
 def converter_for(args) -> Converter:

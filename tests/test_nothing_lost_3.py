@@ -1,0 +1,70 @@
+"""Nothing lost, round 3 (issue 53): FBX/glTF outputs checked like BVH ones, locks that are links, glTF resources
+outside the file's folder, style files that are not regular files, a misbehaving Blender (a fake one on PATH)."""
+import json
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.test_data_safety import _fake_apply, _snapshot
+from tests.test_hardening import _clip, _library, fake_pipeline  # noqa: F401 - a fixture, used by fake
+from video2style import batch, interchange
+from video2style.cli import main
+from video2style.paths import LOCK_NAME
+
+
+@pytest.fixture
+def fake(fake_pipeline):  # noqa: F811 - test_hardening's fake learn/apply (calls recorded)
+    return fake_pipeline
+
+
+def _one_error(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+# 1. FBX/GLB outputs are checked like BVH ones, before any work.
+@pytest.mark.parametrize("argv", [
+    ["lib/walk.fbx", "-o", "lib/sub"],  # lib/sub/walk.fbx is the user's
+    ["lib", "-o", "lib/sub"],
+    ["src/walk.bvh", "-o", "lib/sub", "--format", "fbx"],
+    ["src/walk.bvh", "-o", "lib/sub2", "--format", "glb"],
+])
+def test_a_users_fbx_or_glb_where_a_result_would_go_is_refused(tmp_path, monkeypatch, capsys, argv):
+    _fake_apply(monkeypatch)
+    monkeypatch.chdir(tmp_path)
+    lib = tmp_path / "lib"
+    _clip(tmp_path / "src" / "walk.bvh")
+    lib.mkdir()
+    (lib / "walk.fbx").write_bytes(b"Kaydara FBX Binary  \x00the input")
+    (lib / "sub").mkdir()
+    (lib / "sub" / "walk.fbx").write_bytes(b"the user's own clip")
+    (lib / "sub2").mkdir()
+    (lib / "sub2" / "walk.glb").write_bytes(b"the user's own clip")
+    (tmp_path / "s.v2s").write_text("s")
+    before = _snapshot(tmp_path)
+    assert main(["apply", "s.v2s", *argv]) == 1
+    err = _one_error(capsys)
+    assert "would overwrite" in err and ("sub/walk.fbx" in err or "sub2/walk.glb" in err), err
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_batch_over_a_users_fbx_in_a_result_folder_is_refused(tmp_path, fake):
+    videos, content = _library(tmp_path)
+    (content / "walk.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
+    (content / "res" / "strut").mkdir(parents=True)
+    (content / "res" / "strut" / "walk.fbx").write_bytes(b"the user's own clip")
+    before = _snapshot(tmp_path)
+    with pytest.raises(ValueError, match="res/strut/walk.fbx.*is a clip in the --content folder"):
+        batch.run_batch(videos, content, content / "res", progress=lambda s: None)
+    assert _snapshot(tmp_path) == before and fake["learn"] == []
+
+
+def test_results_of_an_earlier_run_are_still_replaced(tmp_path, monkeypatch):
+    _fake_apply(monkeypatch)
+    clip = _clip(tmp_path / "in" / "walk.bvh")
+    (tmp_path / "s.v2s").write_text("s")
+    for _ in range(2):  # the folder holds our lock after the first run: its walk.bvh is ours
+        assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(tmp_path / "out")]) == 0
