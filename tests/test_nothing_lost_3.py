@@ -68,3 +68,22 @@ def test_results_of_an_earlier_run_are_still_replaced(tmp_path, monkeypatch):
     (tmp_path / "s.v2s").write_text("s")
     for _ in range(2):  # the folder holds our lock after the first run: its walk.bvh is ours
         assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(tmp_path / "out")]) == 0
+
+
+# 2. A lock file that is a hard link is refused and its target never written.
+def test_a_hard_link_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp_path, monkeypatch, fake, capsys):
+    _fake_apply(monkeypatch)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the user's file")
+    clip = _clip(tmp_path / "in" / "walk.bvh")
+    (tmp_path / "s.v2s").write_text("s")
+    out = tmp_path / "out"
+    out.mkdir()
+    os.link(victim, out / LOCK_NAME)
+    assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(out)]) == 1
+    err = _one_error(capsys)
+    assert "hard links" in err and LOCK_NAME in err and victim.read_text() == "the user's file"
+    videos, content = _library(tmp_path)
+    assert main(["batch", str(videos), "--content", str(content), "-o", str(out)]) == 1
+    assert "hard links" in _one_error(capsys) and victim.read_text() == "the user's file" and fake["learn"] == []
+    assert not (out / "walk.bvh").exists()

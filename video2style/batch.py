@@ -69,10 +69,24 @@ def _open_lock(path: Path) -> int:
             raise RuntimeError(f"{path}: is a symbolic link, not our lock file; not following it (remove it if "
                                "you did not make it)") from None
         raise
-    if not stat.S_ISREG(os.fstat(fd).st_mode):
+    problem = _not_our_lock(os.fstat(fd))
+    if problem:
         os.close(fd)
-        raise RuntimeError(f"{path}: is not a regular file, so it cannot be our lock file; remove it or use another -o")
+        raise RuntimeError(f"{path}: {problem}, so it cannot be our lock file; not writing it (remove it if you did "
+                           "not make it, or use another -o)")
     return fd
+
+
+def _not_our_lock(st: os.stat_result) -> str | None:
+    """Why an open lock file cannot be one of ours (None when it can): not a regular file, a hard link to a file
+    elsewhere (writing the pid line would truncate that file), or another user's file."""
+    if not stat.S_ISREG(st.st_mode):
+        return "is not a regular file"
+    if st.st_nlink != 1:
+        return f"has {st.st_nlink} hard links (a file elsewhere shares it)"
+    if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+        return f"belongs to another user (uid {st.st_uid})"
+    return None
 
 
 def _held(folder: Path) -> str | None:
