@@ -87,3 +87,41 @@ def test_a_hard_link_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp
     assert main(["batch", str(videos), "--content", str(content), "-o", str(out)]) == 1
     assert "hard links" in _one_error(capsys) and victim.read_text() == "the user's file" and fake["learn"] == []
     assert not (out / "walk.bvh").exists()
+
+
+# 2b. A glTF's images and buffers outside its own folder are never read.
+def _gltf(path: Path, uris: list[str]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {"asset": {"version": "2.0"}, "images": [{"uri": u} for u in uris],
+           "buffers": [{"uri": "data:application/octet-stream;base64,AAAA", "byteLength": 3}]}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _glb(path: Path, uris: list[str]) -> Path:
+    import struct
+
+    body = json.dumps({"asset": {"version": "2.0"}, "images": [{"uri": u} for u in uris]}).encode()
+    body += b" " * (-len(body) % 4)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(body)) + struct.pack("<II", len(body), 0x4E4F534A) + body)
+    return path
+
+
+def test_gltf_resources_outside_the_files_folder_are_refused_before_blender(tmp_path, monkeypatch, capsys):
+    (tmp_path / "sec").mkdir()
+    (tmp_path / "sec" / "secret.png").write_bytes(b"secret")
+    (tmp_path / "a" / "b" / "tex").mkdir(parents=True)
+    (tmp_path / "a" / "b" / "tex" / "skin.png").write_bytes(b"png")
+    (tmp_path / "a" / "b" / "out.png").symlink_to(tmp_path / "sec" / "secret.png")
+    called = []
+    monkeypatch.setattr(interchange.Blender, "call", lambda self, job, path: called.append(job) or {})
+    for uri in ("../../sec/secret.png", str(tmp_path / "sec" / "secret.png"), "file:///etc/passwd",
+                "%2E%2E/%2E%2E/sec/secret.png", "out.png"):
+        for clip in (_gltf(tmp_path / "a" / "b" / "walk.gltf", ["tex/skin.png", uri]),
+                     _glb(tmp_path / "a" / "b" / "walk.glb", [uri])):
+            assert main(["skeleton", str(clip)]) == 1
+            err = _one_error(capsys)
+            assert str(clip) in err and "outside the file's folder" in err, err
+    assert called == []
+    assert interchange.outside_resources(_gltf(tmp_path / "a" / "b" / "ok.gltf", ["tex/skin.png", "tex/../tex/skin.png"])) == []

@@ -47,6 +47,76 @@ def output_suffix(path: str | os.PathLike, fmt: str | None) -> str:
     return f".{fmt}"
 
 
+GLTF_JSON_BYTES = 64 << 20  # a glTF's JSON part larger than this is not looked into (nor read by us)
+
+
+def gltf_json(path: str | os.PathLike) -> dict | None:
+    """The JSON part of a ``.gltf`` (the whole file) or ``.glb`` (its first chunk); None for other files and for
+    one too damaged to parse (Blender's importer then says what is wrong)."""
+    import struct
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    try:
+        with open(path, "rb") as f:
+            if suffix == ".gltf":
+                raw = f.read(GLTF_JSON_BYTES + 1)
+            elif suffix == ".glb":
+                head = f.read(20)
+                if len(head) < 20 or head[:4] != b"glTF":
+                    return None
+                length, kind = struct.unpack("<II", head[12:20])
+                if kind != 0x4E4F534A or length > GLTF_JSON_BYTES:  # "JSON"
+                    return None
+                raw = f.read(length)
+            else:
+                return None
+        if len(raw) > GLTF_JSON_BYTES:
+            return None
+        doc = json.loads(raw.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
+def outside_resources(path: str | os.PathLike) -> list[str]:
+    """The URIs of a glTF/GLB's external resources (images, buffers) that are not files inside the file's own
+    folder: absolute paths, other schemes (``file:``, ``http:``), ``..`` out of the folder or a symlink leading
+    out. Embedded ``data:`` URIs are fine."""
+    from urllib.parse import unquote, urlsplit
+
+    from video2style.paths import inside
+
+    doc = gltf_json(path)
+    if doc is None:
+        return []
+    folder = Path(path).resolve().parent
+    bad = []
+    for kind in ("images", "buffers"):
+        items = doc.get(kind)
+        for item in items if isinstance(items, list) else []:
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if not isinstance(uri, str) or uri.startswith("data:"):
+                continue
+            parts = urlsplit(uri)
+            rel = unquote(parts.path)
+            if parts.scheme or parts.netloc or os.path.isabs(rel) or "\\" in rel or not inside(folder / rel, folder):
+                bad.append(uri)
+    return bad
+
+
+def check_resources(path: str | os.PathLike) -> None:
+    """Refuse, in one line, a glTF/GLB whose images or buffers lie outside its own folder (a crafted file could
+    have the user's other files read and embedded in a result)."""
+    from motioncore.text import printable
+
+    bad = outside_resources(path)
+    if bad:
+        raise InterchangeError(f"{path}: refers to {printable(repr(bad[0]), 200)} outside the file's folder"
+                               f"{f' (and {len(bad) - 1} more)' if len(bad) > 1 else ''}; resources outside it are "
+                               "not read")
+
+
 def blender_command() -> list[str] | None:
     """How to run the Blender-side script: the ``bpy`` module in this Python, else ``blender`` on PATH; None when neither."""
     if importlib.util.find_spec("bpy") is not None:
@@ -238,6 +308,7 @@ class Converter:
             return self._read[path][0]
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no such file")
+        check_resources(path)
         where = self._folder() / str(len(self._read))
         where.mkdir()
         bvh = where / f"{path.stem}.bvh"
