@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -63,3 +64,18 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` (UTF-8, ``\\n`` newlines) to ``path`` atomically."""
     with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
         f.write(text)
+
+
+def check_regular_file(path: str | os.PathLike, what: str = "file") -> None:
+    """Refuse, in one line (ValueError), an input that is not a regular file, before anything opens it: a FIFO
+    with no writer would hang ``open()`` for good, a device could be read forever. Symlinks are followed; a
+    missing path raises FileNotFoundError naming it."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such {what}") from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode)
+                else "a socket" if stat.S_ISSOCK(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode) or
+                stat.S_ISBLK(st.st_mode) else "not a regular file")
+        raise ValueError(f"{path}: is {kind}, not a {what}; give a regular file")

@@ -125,3 +125,33 @@ def test_gltf_resources_outside_the_files_folder_are_refused_before_blender(tmp_
             assert str(clip) in err and "outside the file's folder" in err, err
     assert called == []
     assert interchange.outside_resources(_gltf(tmp_path / "a" / "b" / "ok.gltf", ["tex/skin.png", "tex/../tex/skin.png"])) == []
+
+
+# 10b. A style file that is not a regular file is refused before it is opened.
+def test_a_style_file_that_is_a_fifo_is_refused_before_open(tmp_path, capsys):
+    import threading
+
+    from transfer.style_file import Style
+
+    fifo = tmp_path / "s.v2s"
+    os.mkfifo(fifo)
+    (tmp_path / "link.v2s").symlink_to(fifo)
+    clip = _clip(tmp_path / "in" / "walk.bvh")
+    for style in (fifo, tmp_path / "link.v2s"):
+        codes = []
+        worker = threading.Thread(target=lambda s=style: codes.append(main(["apply", str(s), str(clip), "-o",
+                                                                            str(tmp_path / "out")])), daemon=True)
+        worker.start()
+        worker.join(60)
+        if worker.is_alive():  # hung in open(): give it a writer so that the thread ends, then fail
+            with open(fifo, "wb"):
+                pass
+            pytest.fail("apply hung opening a FIFO")
+        assert codes == [1]
+        err = _one_error(capsys)
+        assert str(style) in err and "FIFO" in err, err
+    with pytest.raises(ValueError, match="is a folder, not a style file"):
+        Style.load(tmp_path / "in")
+    with pytest.raises(FileNotFoundError, match="no such style file"):
+        Style.load(tmp_path / "none.v2s")
+    assert not (tmp_path / "out" / "walk.bvh").exists()

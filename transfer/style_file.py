@@ -82,7 +82,10 @@ class Style:
     @staticmethod
     def load(path: Path) -> Style:
         """Read and validate a style file (:func:`validate_style`): it is untrusted input."""
+        from motioncore.files import check_regular_file
+
         path = Path(path)
+        check_regular_file(path, "style file")  # a FIFO would hang open() for good
         try:
             with safe_open(str(path), framework="pt") as f:
                 raw = (f.metadata() or {}).get("video2style")
