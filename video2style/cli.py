@@ -432,8 +432,10 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
         try:
             info = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
+            from motioncore.text import printable
+
             failed += 1
-            print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
+            print(f"[{i}/{len(files)}] {printable(path)}: error: {printable(e)}", file=sys.stderr)
             continue
         extra = ""
         if info.get("detected"):
@@ -1010,13 +1012,16 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except (CliError, ValueError, FileNotFoundError, RuntimeError) as e:
+        from motioncore.text import printable
         from video2style.interchange import named
 
-        print(f"video2style {args.command}: error: {named(args, str(e))}", file=sys.stderr)
+        print(f"video2style {args.command}: error: {printable(named(args, str(e)))}", file=sys.stderr)
         return 1
     except OSError as e:  # a full or read-only disk, a vanished folder: one line naming the path
+        from motioncore.text import printable
+
         where = f"{e.filename}: " if e.filename else ""
-        print(f"video2style {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+        print(f"video2style {args.command}: error: {printable(f'{where}{e.strerror or e}')}", file=sys.stderr)
         return 1
     finally:
         if previous is not None:
