@@ -155,3 +155,160 @@ def test_a_style_file_that_is_a_fifo_is_refused_before_open(tmp_path, capsys):
     with pytest.raises(FileNotFoundError, match="no such style file"):
         Style.load(tmp_path / "none.v2s")
     assert not (tmp_path / "out" / "walk.bvh").exists()
+
+
+# A fake `blender` that misbehaves as FAKE_BLENDER says (items 3, 4, 5, 7, 8, 9, 10).
+FAKE = r'''#!{python}
+import json, os, shutil, sys, time
+mode = os.environ.get("FAKE_BLENDER", "")
+if mode == "hang-start":
+    time.sleep(300)
+print("Blender 3.4.1 (fake)")
+print("V2S-READY", flush=True)
+
+def answer(obj):
+    sys.stdout.write("V2S-RESULT " + (obj if isinstance(obj, str) else json.dumps(obj)) + "\n")
+    sys.stdout.flush()
+
+for line in sys.stdin:
+    job = json.loads(line)
+    p = job.get("path") or job.get("source") or ""
+    if mode == "hang":
+        time.sleep(300)
+    if "bad" in os.path.basename(p):
+        answer({"ok": False, "error": p + ": not an FBX file"})
+        continue
+    if mode == "no-fields":
+        answer({"ok": True})
+    elif mode == "no-error":
+        answer({"ok": False})
+    elif mode == "not-json":
+        answer("{oops")
+    elif mode == "esc":
+        answer({"ok": False, "error": "\x1b[2J\x1b[31mEVIL\nsecond line"})
+    elif mode == "flood":
+        sys.stdout.write("x" * (40 << 20))
+        sys.stdout.flush()
+        sys.stderr.write("y" * (40 << 20) + "\n")
+        sys.stderr.flush()
+        time.sleep(300)
+    elif mode == "truncated":
+        sys.stdout.write('V2S-RESULT {"ok": false, "error": "No space left on device ... truncated')
+        sys.stdout.flush()
+        time.sleep(300)
+    elif job["op"] == "read":
+        shutil.copyfile(os.environ["FAKE_BVH"], job["bvh"])
+        answer({"ok": True, "armature": "Armature", "armatures": ["Armature"], "action": "Walk", "actions": ["Walk"],
+                "notes": ["used armature '\x1b[2JArmature'"], "fps": 30.0, "frame_start": 1, "frame_end": 30,
+                "bones": 22, "meshes": []})
+    elif mode == "write-error":
+        answer({"ok": False, "error": "Blender: PermissionError: cannot open " + job["out"]})
+    else:
+        open(job["out"], "wb").write(b"fbx")
+        answer({"ok": True, "armature": "Armature", "action": "Walk", "frame_start": 1, "frame_end": 30, "fps": 30.0})
+'''
+
+
+@pytest.fixture
+def fake_blender(tmp_path, monkeypatch):
+    """``blender`` replaced by :data:`FAKE`; set ``FAKE_BLENDER`` for its mode. Returns a folder of clips."""
+    exe = tmp_path / "bin" / "blender"
+    exe.parent.mkdir()
+    exe.write_text(FAKE.replace("{python}", sys.executable))
+    exe.chmod(0o755)
+    monkeypatch.setattr(interchange, "blender_command", lambda: [str(exe)])
+    monkeypatch.setenv("FAKE_BVH", str(_clip(tmp_path / "template.bvh")))
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    for name in ("a_bad.fbx", "b_walk.fbx", "c_run.glb"):
+        (clips / name).write_bytes(b"Kaydara FBX Binary  \x00")
+    return clips
+
+
+def test_one_bad_clip_fails_alone(fake_blender, tmp_path):
+    with interchange.Converter() as conv:
+        with pytest.raises(interchange.InterchangeError, match="a_bad.fbx: not an FBX file"):
+            conv.to_bvh(fake_blender / "a_bad.fbx")
+        assert conv.to_bvh(fake_blender / "b_walk.fbx").is_file()
+        assert conv.to_bvh(fake_blender / "c_run.glb").is_file()
+        folder = conv._folder()
+        assert len(list(folder.iterdir())) == 2  # the failed clip's temporary folder is gone
+    assert not folder.exists()  # and all of it once the command ends
+
+
+@pytest.mark.parametrize("mode, said", [("no-fields", "without armature, action, fps"),
+                                        ("no-error", "a failure without its error"),
+                                        ("not-json", "not JSON")])
+def test_a_malformed_answer_is_one_line_naming_the_clip_and_blender(fake_blender, monkeypatch, capsys, mode, said):
+    monkeypatch.setenv("FAKE_BLENDER", mode)
+    clip = fake_blender / "b_walk.fbx"
+    assert main(["skeleton", str(clip)]) == 1
+    err = _one_error(capsys)
+    assert str(clip) in err and "Blender" in err and said in err, err
+
+
+def test_text_from_blender_or_a_style_file_is_printed_without_control_characters(fake_blender, tmp_path, monkeypatch,
+                                                                               capsys):
+    import torch
+    from safetensors.torch import save_file
+
+    monkeypatch.setenv("FAKE_BLENDER", "esc")
+    assert main(["skeleton", str(fake_blender / "b_walk.fbx")]) == 1
+    err = _one_error(capsys)
+    assert "\x1b" not in err and "EVIL second line" in err
+    monkeypatch.delenv("FAKE_BLENDER")
+    with interchange.Converter(notify=lambda s: print(s, file=sys.stderr)) as conv:
+        conv.to_bvh(fake_blender / "b_walk.fbx")
+    note = capsys.readouterr().err
+    assert "\x1b" not in note and "[2JArmature" in note
+    style = tmp_path / "evil.v2s"
+    meta = {"video2style": json.dumps({"style": "x"})}
+    save_file({"\x1b[2J\x1b[31mEVIL.lora_a": torch.zeros(3, 5)}, str(style), metadata=meta)
+    assert main(["apply", str(style), str(_clip(tmp_path / "in" / "walk.bvh")), "-o", str(tmp_path / "out")]) == 1
+    err = _one_error(capsys)
+    assert "\x1b" not in err and str(style) in err, err
+
+
+def test_a_result_blender_did_not_write_is_named_by_its_own_name(fake_blender, tmp_path, monkeypatch):
+    monkeypatch.setenv("FAKE_BLENDER", "write-error")
+    out = tmp_path / "out" / "walk.fbx"
+    with interchange.Converter() as conv, pytest.raises(interchange.InterchangeError) as e:
+        conv.write(fake_blender.parent / "template.bvh", out)
+    assert f"cannot open {out}" in str(e.value) and ".v2s-tmp-" not in str(e.value), e.value
+    assert not out.exists() and not list(out.parent.iterdir())
+
+
+@pytest.mark.parametrize("mode", ["flood", "truncated", "hang-start"])
+def test_a_flooding_or_silent_blender_is_bounded_and_stopped(fake_blender, monkeypatch, mode):
+    import time
+
+    monkeypatch.setenv("FAKE_BLENDER", mode)
+    blender = interchange.Blender(timeout=6.0, startup=6.0)
+    t0 = time.time()
+    with pytest.raises(interchange.InterchangeError) as e:
+        blender.call({"op": "read", "path": str(fake_blender / "b_walk.fbx")}, fake_blender / "b_walk.fbx")
+    assert time.time() - t0 < 30 and blender._proc is None
+    line = str(e.value)
+    assert "\n" not in line and len(line) < 1000 and str(fake_blender / "b_walk.fbx") in line, line[:2000]
+    if mode == "truncated":  # the answer without its newline is taken once Blender falls silent, not after the limit
+        assert "truncated" in line and time.time() - t0 < 5.5
+
+
+def test_sigterm_while_blender_hangs_ends_at_once(fake_blender, tmp_path):
+    import signal
+    import subprocess
+    import time
+
+    exe = tmp_path / "bin" / "blender"
+    env = {**os.environ, "FAKE_BLENDER": "hang", "VIDEO2STYLE_BLENDER": str(exe), "OMP_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "video2style", "skeleton", str(fake_blender / "b_walk.fbx")],
+                            cwd=Path(__file__).resolve().parents[1], env=env, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(8)  # imports, then Blender asked
+        t0 = time.time()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 143
+        assert time.time() - t0 < 10
+    finally:
+        proc.kill()
+        proc.wait()

@@ -148,6 +148,10 @@ def job_read(job):
     start, end = _frame_range(act)
     if end <= start:
         raise JobError(f"{path}: action {act.name!r} of {arm.name!r} has one frame; nothing to style")
+    limit = job.get("max_seconds")
+    if limit and (end - start) / _scene_fps() > limit:  # before the export, which costs time and disk per frame
+        raise JobError(f"{path}: action {act.name!r} runs from frame {start} to {end} ({(end - start) / _scene_fps() / 3600:.1f} "
+                       f"hours at {_scene_fps():g} fps); clips up to {limit / 3600:g} hours are taken")
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = start, end
     for o in bpy.context.view_layer.objects:
@@ -325,6 +329,8 @@ def job_write(job):
 
 
 def main():
+    sys.stdout.write("V2S-READY\n")  # the caller's start-up limit ends here
+    sys.stdout.flush()
     for line in sys.stdin:
         if not line.strip():
             continue
