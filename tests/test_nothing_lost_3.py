@@ -312,3 +312,19 @@ def test_sigterm_while_blender_hangs_ends_at_once(fake_blender, tmp_path):
     finally:
         proc.kill()
         proc.wait()
+
+
+# 7b. A span far past the end is one line, not an OverflowError.
+@pytest.mark.parametrize("flag", ["--start", "--end"])
+def test_a_span_of_1e308_seconds_is_one_line(tmp_path, capsys, flag):
+    from motioncore.bvh import read_bvh
+    from motioncore.motion import trim
+
+    clip = _clip(tmp_path / "walk.bvh")
+    motion, _ = read_bvh(clip)
+    if flag == "--end":
+        assert trim(motion, (0.5, 1e308), "walk").num_frames == motion.num_frames - int(0.5 * motion.fps)
+        return
+    assert main(["learn", str(clip), flag, "1e308", "-o", str(tmp_path / "s.v2s")]) == 1
+    err = _one_error(capsys)
+    assert str(clip) in err and "select no frames" in err, err
