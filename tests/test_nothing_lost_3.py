@@ -328,3 +328,34 @@ def test_a_span_of_1e308_seconds_is_one_line(tmp_path, capsys, flag):
     assert main(["learn", str(clip), flag, "1e308", "-o", str(tmp_path / "s.v2s")]) == 1
     err = _one_error(capsys)
     assert str(clip) in err and "select no frames" in err, err
+
+
+def test_a_batch_report_holds_only_printable_text(fake_blender, tmp_path, monkeypatch, fake, capsys):
+    monkeypatch.setenv("FAKE_BLENDER", "esc")
+    monkeypatch.setattr(interchange, "_SHARED", [])
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "v.mp4").write_bytes(b"not read by the fake learner")
+    (videos / "w.mp4").write_bytes(b"not read by the fake learner")
+    content = tmp_path / "content"
+    content.mkdir()
+    (content / "walk.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
+    from video2style import pipeline
+
+    real_learn = pipeline.learn_file  # the fake pipeline's
+
+    def learn_file(video, out, **kw):
+        if Path(video).name == "w.mp4":
+            raise ValueError(f"{video}: \x1b[2J\x1b[31mEVIL video")
+        return real_learn(video, out, **kw)
+
+    monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
+    try:
+        report = batch.run_batch(videos, content, tmp_path / "out", progress=print)
+    finally:
+        for conv in interchange._SHARED:
+            conv.close()
+    assert [r["status"] for r in report.rows] == ["failed", "failed"]
+    assert "EVIL second line" in report.rows[0]["error"] and "EVIL video" in report.rows[1]["error"]
+    assert "\x1b" not in report.table()
+    assert "\x1b" not in capsys.readouterr().out

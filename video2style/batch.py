@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from motioncore.files import atomic_write_text, is_temp_name
+from motioncore.text import printable
 from video2style.paths import LOCK_NAME, check_no_links, check_outputs, inside
 from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
@@ -257,8 +258,8 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
     try:
         style = _style_for(video, out_dir / "styles" / f"{key}.v2s", tag, learn_config, progress, device, rotate)
     except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
-        report.add(video=video.name, status="failed", error=f"learn: {e}", seconds=time.time() - t0)
-        progress(f"    failed: {e}")
+        report.add(video=video.name, status="failed", error=f"learn: {printable(e)}", seconds=time.time() - t0)
+        progress(f"    failed: {printable(e)}")
         return
     model = style_model(load_models(device).prior, style)
     facts = _style_facts(style, strength)
@@ -293,7 +294,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, st
         try:
             info = run(clip, where)
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
-            error = str(e)
+            error = printable(e)  # one line, nothing a crafted file or Blender said can reach the terminal raw
             continue
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
                 "preview": info.get("preview", ""), "player": info.get("player", ""), "notes": apply_notes(info)}
