@@ -359,3 +359,38 @@ def test_a_batch_report_holds_only_printable_text(fake_blender, tmp_path, monkey
     assert "EVIL second line" in report.rows[0]["error"] and "EVIL video" in report.rows[1]["error"]
     assert "\x1b" not in report.table()
     assert "\x1b" not in capsys.readouterr().out
+
+
+# 11. Temporary files and folders of failed or killed runs do not stay.
+def test_apply_sweeps_what_an_interrupted_run_left_in_its_folders(tmp_path, monkeypatch, capsys):
+    from motioncore.files import temp_beside
+
+    _fake_apply(monkeypatch)
+    clip = _clip(tmp_path / "in" / "walk.bvh")
+    (tmp_path / "s.v2s").write_text("s")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / LOCK_NAME).write_text("pid 1 apply")  # an earlier run's folder
+    stale = [temp_beside(out / "long6.fbx"), temp_beside(out / "walk_preview.mp4")]
+    users = out / ".notes.20241201.tmp"
+    users.write_text("mine")
+    assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(out)]) == 0
+    assert not any(p.exists() for p in stale) and users.read_text() == "mine"
+    assert "removed 2 temporary file(s)" in capsys.readouterr().err
+
+
+def test_interchange_folders_of_killed_runs_are_removed(tmp_path, fake_blender, monkeypatch):
+    import subprocess
+
+    monkeypatch.setattr(interchange.tempfile, "tempdir", str(tmp_path))
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    left = tmp_path / f"{interchange.TEMP_PREFIX}{dead.pid}-abcd1234"
+    (left / "0").mkdir(parents=True)
+    alive = tmp_path / f"{interchange.TEMP_PREFIX}{os.getppid()}-abcd1234"  # a running process's: kept
+    alive.mkdir()
+    with interchange.Converter() as conv:
+        conv.to_bvh(fake_blender / "b_walk.fbx")
+        ours = conv._folder()
+        assert ours.name.startswith(f"{interchange.TEMP_PREFIX}{os.getpid()}-")
+    assert not left.exists() and alive.exists() and not ours.exists()

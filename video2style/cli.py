@@ -418,9 +418,20 @@ def cmd_apply(args) -> None:
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
+        _sweep_outputs(where for _, where in files)
         failed = _apply_all(run_item, files)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+
+
+def _sweep_outputs(folders) -> None:
+    """Remove the temporary files an interrupted run left in the folders this apply writes (only files of our own
+    making, :func:`video2style.batch.sweep_temp_files`); called holding the output folder's lock."""
+    from video2style.batch import sweep_temp_files
+
+    stale = sum(sweep_temp_files(Path(f), recursive=False) for f in dict.fromkeys(folders) if Path(f).is_dir())
+    if stale:
+        print(f"removed {stale} temporary file(s) left by an interrupted run", file=sys.stderr)
 
 
 def _apply_all(run_item, files: list[tuple[Path, Path]]) -> int:
@@ -1026,6 +1037,8 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if getattr(args, "clip_converter", None) is not None:  # Blender ended, temporary BVH files removed
+            args.clip_converter.close()
     return 0
 
 

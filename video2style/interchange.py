@@ -423,6 +423,43 @@ def _exact_frame_time(bvh: Path, fps: float) -> None:
     bvh.write_text(f"{text[:start]}Frame Time: {1.0 / fps!r}{text[end:]}", encoding="utf-8")
 
 
+TEMP_PREFIX = "video2style-interchange-"  # then the pid of the process that made the folder
+
+
+def sweep_stale_folders(tmp: str | os.PathLike | None = None) -> int:
+    """Remove the temporary folders (``video2style-interchange-PID-*`` in ``tmp``, default the system's) that a
+    process of this user left when it was killed: its pid no longer runs. Returns how many."""
+    removed = 0
+    root = Path(tmp or tempfile.gettempdir())
+    try:
+        found = list(root.glob(f"{TEMP_PREFIX}*-*"))
+    except OSError:
+        return 0
+    for folder in found:
+        pid = folder.name[len(TEMP_PREFIX):].split("-", 1)[0]
+        try:
+            st = folder.lstat()
+        except OSError:
+            continue
+        if not pid.isdigit() or not folder.is_dir() or folder.is_symlink() or st.st_uid != os.getuid():
+            continue
+        if int(pid) != os.getpid() and not _running(int(pid)):
+            shutil.rmtree(folder, ignore_errors=True)
+            removed += 1
+    return removed
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists (another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 class Converter:
     """FBX/glTF <-> BVH for one command: :meth:`to_bvh` reads a clip (BVH paths pass through), :meth:`write`
     publishes a BVH result in a format, onto the clip's own file when it came from one. One Blender process
@@ -445,7 +482,8 @@ class Converter:
 
     def _folder(self) -> Path:
         if not self._tmp:
-            self._tmp.append(Path(tempfile.mkdtemp(prefix="video2style-interchange-")))
+            sweep_stale_folders()
+            self._tmp.append(Path(tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{os.getpid()}-")))
         return self._tmp[0]
 
     def to_bvh(self, path: str | os.PathLike) -> Path:
