@@ -16,16 +16,21 @@ from contextlib import contextmanager
 from pathlib import Path
 
 TEMP_MARK = ".v2s-tmp-"  # in every temporary name we make, and in no name we publish
+TEMP_NAME_BYTES = 120  # of a file's name, at most this much goes into its temporary name
 _TEMP_NAME = re.compile(r"^\..+" + re.escape(TEMP_MARK) + r"[a-z0-9_]{8}\.[A-Za-z0-9]+$")
 
 
 def temp_beside(path: str | os.PathLike, suffix: str | None = None) -> Path:
-    """A new empty file beside ``path`` (its folder made if needed), ``.NAME.v2s-tmp-xxxxxxxx<suffix>``: made with
+    """A new empty file beside ``path`` (its folder made if needed), ``.NAME.v2s-tmp-xxxxxxxx<suffix>`` (NAME: the first
+    :data:`TEMP_NAME_BYTES` bytes of the path's name): made with
     O_EXCL (never an existing file, never through a symlink planted there), mode 0600 until :func:`publish`.
     ``suffix``: default the path's own, ``.tmp`` if it has none."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}{TEMP_MARK}", suffix=suffix or path.suffix or ".tmp")
+    # the name cut short where it is long: a legal 244-character name must not make a temporary one too long
+    short = os.fsdecode(os.fsencode(path.name)[:TEMP_NAME_BYTES])
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{short}{TEMP_MARK}",
+                               suffix=(suffix or path.suffix or ".tmp")[:16])
     os.close(fd)
     return Path(tmp)
 

@@ -394,3 +394,45 @@ def test_interchange_folders_of_killed_runs_are_removed(tmp_path, fake_blender, 
         ours = conv._folder()
         assert ours.name.startswith(f"{interchange.TEMP_PREFIX}{os.getpid()}-")
     assert not left.exists() and alive.exists() and not ours.exists()
+
+
+# 16. Small ones.
+def test_an_empty_fbx_is_called_empty_and_named_once(fake_blender, tmp_path, capsys):
+    clip = fake_blender / "empty.fbx"
+    clip.write_bytes(b"")
+    assert main(["skeleton", str(clip)]) == 1
+    err = _one_error(capsys)
+    assert "is empty (0 bytes)" in err and err.count("empty.fbx") == 1, err
+    assert main(["skeleton", str(fake_blender / "a_bad.fbx")]) == 1  # Blender names the resolved path: said once
+    err = _one_error(capsys)
+    assert err.count("a_bad.fbx") == 1 and "not an FBX file" in err, err
+
+
+def test_a_long_legal_clip_name_gets_a_temporary_name_that_fits(tmp_path, capsys):
+    from motioncore.files import atomic_write_text, is_temp_name, temp_beside
+
+    name = "w" * 240 + ".bvh"  # 244 characters: legal
+    tmp = temp_beside(tmp_path / name)
+    assert len(tmp.name) <= 255 and is_temp_name(tmp.name)
+    atomic_write_text(tmp_path / ("é" * 120 + ".txt"), "x")  # 244 bytes of UTF-8
+    too_long = "s" * 300 + ".v2s"
+    assert main(["learn", str(_clip(tmp_path / "walk.bvh")), "-o", str(tmp_path / too_long)]) == 1
+    err = _one_error(capsys)
+    assert "304 bytes long" in err and "[1/4]" not in capsys.readouterr().out  # refused before learning
+
+
+def test_clips_of_one_name_in_one_folder_are_refused_for_the_right_reason(tmp_path, monkeypatch, capsys):
+    _fake_apply(monkeypatch)
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for name in ("walk.fbx", "walk.glb"):
+        (lib / name).write_bytes(b"x")
+    (tmp_path / "s.v2s").write_text("s")
+    assert main(["apply", str(tmp_path / "s.v2s"), str(lib), "-o", str(tmp_path / "out")]) == 1
+    err = _one_error(capsys)
+    assert "share the name 'walk' in one folder" in err and "give their folder" not in err, err
+
+
+def test_a_video_named_styles_keeps_its_results_apart_from_the_style_files(tmp_path):
+    keys = batch.video_keys([tmp_path / "styles.mp4", tmp_path / "walk.mp4"])
+    assert keys[tmp_path / "styles.mp4"] != "styles" and keys[tmp_path / "walk.mp4"] == "walk"

@@ -42,9 +42,10 @@ def find_videos(folder: Path) -> list[Path]:
 
 def video_keys(videos: list[Path]) -> dict[Path, str]:
     """A name per video for its style file and result folder: the stem, or ``stem_ext`` where two videos
-    share a stem (``x.mp4`` and ``x.mov``)."""
+    share a stem (``x.mp4`` and ``x.mov``) or where the stem is the style files' own folder (``styles.mp4``)."""
     stems = [v.stem for v in videos]
-    return {v: v.stem if stems.count(v.stem) == 1 else f"{v.stem}_{v.suffix[1:].lower()}" for v in videos}
+    return {v: v.stem if stems.count(v.stem) == 1 and v.stem.lower() != "styles" else f"{v.stem}_{v.suffix[1:].lower()}"
+            for v in videos}
 
 
 def sweep_temp_files(out_dir: Path, recursive: bool = True) -> int:

@@ -37,10 +37,10 @@ class Terminated(BaseException):
 
 def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     """Check an output location before any work: a file path must not be a folder, a folder must not be
-    a file, and the nearest existing folder above must be writable. Returns ``path``."""
-    import os
-
+    a file, no name in it may be longer than the disk takes, and the nearest existing folder above must be
+    writable. Returns ``path``."""
     path = Path(path)
+    _check_name_lengths(path, flag)
     if not is_dir and path.is_dir():
         raise CliError(f"{path}: {flag} names a folder; give a file name")
     if is_dir and path.exists() and not path.is_dir():
@@ -53,6 +53,21 @@ def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise CliError(f"{parent}: cannot write here ({flag} {path})")
     return path
+
+
+def _check_name_lengths(path: Path, flag: str) -> None:
+    """Refuse, before any work, an output whose name (or a folder's on the way) is longer than the disk takes."""
+    existing = Path(os.path.abspath(path))
+    while existing != existing.parent and not os.path.isdir(existing):
+        existing = existing.parent
+    try:
+        most = os.pathconf(existing, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        most = 255
+    for part in Path(path).parts:
+        if len(os.fsencode(part)) > most:
+            raise CliError(f"{path}: {flag}: the name {part[:40]}... is {len(os.fsencode(part))} bytes long; this disk "
+                           f"takes names up to {most} bytes")
 
 
 STYLE_FILE_BYTES = 8 << 20  # room a style file needs: about 0.6 MB of adapters and up to 20 s of example
@@ -365,9 +380,13 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
         raise CliError("apply: no BVH files (nor FBX/glTF clips) found in the inputs")
     seen: dict[Path, Path] = {}
     for clip, where in files:
-        target = where / f"{clip.stem}.bvh"
+        target = where / f"{clip.stem}.bvh"  # every result is first a BVH of this name, whatever its format
         if target in seen:
-            raise CliError(f"apply: {seen[target]} and {clip} would both write {target}; give their folder "
+            other = seen[target]
+            if other.parent == clip.parent:
+                raise CliError(f"apply: {other} and {clip} share the name {clip.stem!r} in one folder; their results "
+                               f"(in {where}) are made under that one name: rename one or apply them separately")
+            raise CliError(f"apply: {other} and {clip} would both write {target}; give their folder "
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
     check_no_links(out_dir, dict.fromkeys(where for _, where in files))

@@ -273,7 +273,11 @@ class Blender:
             self.kill()  # a Blender that answers nonsense is not asked again
             raise InterchangeError(f"{shown}: Blender gave {e}: {printable(line, SHOWN_CHARS) or 'nothing'}") from None
         if not out.pop("ok"):
-            error = printable(out["error"], 2 * SHOWN_CHARS)  # one line, printable, whatever Blender said
+            error = out["error"]
+            for key in ("path", "source"):  # the file as the user named it, once
+                if isinstance(job.get(key), str) and job[key]:
+                    error = error.replace(f"{job[key]}: ", "").replace(job[key], shown)
+            error = printable(error, 2 * SHOWN_CHARS)  # one line, printable, whatever Blender said
             raise InterchangeError(error if error.startswith(shown) else f"{shown}: {error}")
         return out
 
@@ -495,6 +499,8 @@ class Converter:
             return self._read[path][0]
         if not path.is_file():
             raise FileNotFoundError(f"{path}: no such file")
+        if path.stat().st_size == 0:
+            raise InterchangeError(f"{path}: is empty (0 bytes); not an {path.suffix[1:].upper()} file")
         check_resources(path)
         self._count += 1
         where = self._folder() / str(self._count)  # a number of its own: a file that failed keeps none
