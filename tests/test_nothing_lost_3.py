@@ -436,3 +436,75 @@ def test_clips_of_one_name_in_one_folder_are_refused_for_the_right_reason(tmp_pa
 def test_a_video_named_styles_keeps_its_results_apart_from_the_style_files(tmp_path):
     keys = batch.video_keys([tmp_path / "styles.mp4", tmp_path / "walk.mp4"])
     assert keys[tmp_path / "styles.mp4"] != "styles" and keys[tmp_path / "walk.mp4"] == "walk"
+
+
+# 10a, 12: files built with the real Blender.
+ODD = r'''
+import importlib.util, json, sys
+import bpy
+args = json.loads(sys.argv[sys.argv.index("--") + 1])
+spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
+io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
+out = args["out"]
+io._clear()
+io._import(args["path"])
+arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+prop = arm.copy()
+prop.data = arm.data.copy()
+prop.name = "Prop"
+bpy.context.scene.collection.objects.link(prop)
+prop.animation_data_clear()
+prop.location.x += 2.0
+bpy.ops.export_scene.fbx(filepath=out + "/prop.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
+                         bake_anim_use_all_actions=False, bake_anim_force_startend_keying=False)
+io._clear()
+io._import(args["path"])
+arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+pb = arm.pose.bones[0]
+pb.rotation_mode = "QUATERNION"
+pb.keyframe_insert("rotation_quaternion", frame=1080000)
+bpy.ops.export_scene.gltf(filepath=out + "/long.glb", export_format="GLB", export_animations=True,
+                          export_force_sampling=False, export_frame_range=False, export_nla_strips=False)
+print("RESULT" + json.dumps({"ok": True}))
+'''
+
+
+@pytest.fixture(scope="module")
+def odd_files(tmp_path_factory):
+    import subprocess
+
+    from tests.test_interchange import _blender_problem, corpus_bvh
+
+    if _blender_problem() is not None:
+        pytest.skip(f"no usable Blender: {_blender_problem()}")
+    folder = tmp_path_factory.mktemp("odd")
+    with interchange.Converter() as conv:
+        fbx = conv.write(corpus_bvh(folder / "src", "mixamo"), folder / "src" / "walk.fbx")
+    helper = folder / "helper.py"
+    helper.write_text(ODD)
+    cmd = [*interchange.blender_command()[:-1], str(helper)]
+    args = json.dumps({"path": str(fbx), "out": str(folder), "blender_io": str(interchange.SCRIPT)})
+    env = None if "--python" not in cmd else interchange.blender_env()
+    proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
+    assert "RESULT" in proc.stdout, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return folder
+
+
+def test_an_armature_without_animation_is_refused_and_the_animated_one_taken(odd_files, capsys):
+    clip = odd_files / "prop.fbx"
+    assert main(["skeleton", str(clip), "--armature", "Prop"]) == 1
+    err = _one_error(capsys)
+    assert str(clip) in err and "'Prop' has no animation" in err, err
+    assert main(["skeleton", str(clip)]) == 0  # one armature is animated: it is taken without asking
+    assert "--armature to choose" in capsys.readouterr().err
+
+
+def test_an_action_of_days_is_refused_before_its_export(odd_files, capsys):
+    import time
+
+    clip = odd_files / "long.glb"
+    t0 = time.time()
+    assert main(["skeleton", str(clip)]) == 1
+    err = _one_error(capsys)
+    assert str(clip) in err and "hours" in err and "up to 6 hours" in err, err
+    assert time.time() - t0 < 60

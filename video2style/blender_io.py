@@ -62,10 +62,25 @@ def _bone_of(data_path):
     return None
 
 
+def _assigned(obj):
+    """The actions an object plays: its active one and those of its NLA strips."""
+    data = obj.animation_data
+    if data is None:
+        return set()
+    found = {data.action} if data.action is not None else set()
+    for track in data.nla_tracks:
+        found |= {strip.action for strip in track.strips if strip.action is not None}
+    return found
+
+
 def _actions_for(arm):
-    """Actions that animate some bone of ``arm``, its active one first."""
+    """Actions that animate some bone of ``arm``, its active one first; an action another armature plays is
+    that one's, not ``arm``'s (two rigs with the same bone names: a prop's armature must not take the walk)."""
     names = {b.name for b in arm.data.bones}
-    found = [a for a in bpy.data.actions if any(_bone_of(fc.data_path) in names for fc in a.fcurves)]
+    own = _assigned(arm)
+    others = set().union(*[_assigned(o) for o in bpy.data.objects if o.type == "ARMATURE" and o != arm])
+    found = [a for a in bpy.data.actions if (a in own or a not in others)
+             and any(_bone_of(fc.data_path) in names for fc in a.fcurves)]
     active = arm.animation_data.action if arm.animation_data else None
     return sorted(found, key=lambda a: (a != active, a.name))
 
@@ -282,6 +297,15 @@ def _rest_before(action, start):
     bpy.context.scene.frame_set(start - 1)
 
 
+def _embedded_gltf():
+    """The glTF exporter's one-file .gltf format: Blender 4.2 offers it only once the add-on's preference allows it."""
+    addon = bpy.context.preferences.addons.get("io_scene_gltf2")
+    prefs = getattr(addon, "preferences", None)
+    if prefs is not None and hasattr(prefs, "allow_embedded_format"):
+        prefs.allow_embedded_format = True
+    return "GLTF_EMBEDDED"
+
+
 def _export(out, fmt):
     if fmt == "fbx":
         bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
@@ -289,7 +313,7 @@ def _export(out, fmt):
                                  bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
                                  bake_anim_simplify_factor=0.0, apply_unit_scale=True)
     elif fmt in ("glb", "gltf"):
-        bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else "GLTF_EMBEDDED",
+        bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else _embedded_gltf(),
                                   export_animations=True, export_nla_strips=False, export_force_sampling=True,
                                   export_frame_range=True, export_def_bones=False, export_skins=True,
                                   export_yup=True)
