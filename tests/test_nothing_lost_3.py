@@ -508,3 +508,20 @@ def test_an_action_of_days_is_refused_before_its_export(odd_files, capsys):
     err = _one_error(capsys)
     assert str(clip) in err and "hours" in err and "up to 6 hours" in err, err
     assert time.time() - t0 < 60
+
+
+# 14b. A --rotate that turns an upright video is refused.
+@pytest.mark.parametrize(("rotate", "seen_turn", "said"), [(180, 180, "leave --rotate out"), (90, 90, "leave --rotate out"),
+                                                            (180, 270, "run again with --rotate 270")])
+def test_a_rotate_that_turns_an_upright_video_is_refused(tmp_path, monkeypatch, rotate, seen_turn, said):
+    from lifting import lift
+    from tests.lifting.test_video_rotation import fake_track, standing_landmarks, turned_pixels
+
+    video = tmp_path / "upright.mp4"
+    video.write_bytes(b"not decoded: the tracking is replaced")
+    seen = fake_track(turned_pixels(standing_landmarks(), seen_turn))  # what the tracker sees in the turned frames
+    monkeypatch.setattr(lift, "track", lambda *a, **k: seen)
+    with pytest.raises(ValueError) as e:
+        lift.lift_video(video, progress=lambda s: None, rotate=rotate)
+    line = str(e.value)
+    assert str(video) in line and f"--rotate {rotate} leaves the person" in line and said in line, line
