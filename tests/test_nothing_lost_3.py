@@ -196,6 +196,8 @@ for line in sys.stdin:
         sys.stdout.write('V2S-RESULT {"ok": false, "error": "No space left on device ... truncated')
         sys.stdout.flush()
         time.sleep(300)
+    elif mode == "nowrite" and job["op"] == "read":
+        answer({"ok": True, "armature": "Armature", "action": "Walk", "fps": 30.0, "frame_start": 1, "frame_end": 30})
     elif job["op"] == "read":
         shutil.copyfile(os.environ["FAKE_BVH"], job["bvh"])
         answer({"ok": True, "armature": "Armature", "armatures": ["Armature"], "action": "Walk", "actions": ["Walk"],
@@ -525,3 +527,16 @@ def test_a_rotate_that_turns_an_upright_video_is_refused(tmp_path, monkeypatch, 
         lift.lift_video(video, progress=lambda s: None, rotate=rotate)
     line = str(e.value)
     assert str(video) in line and f"--rotate {rotate} leaves the person" in line and said in line, line
+
+
+def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch):
+    import collections
+    import shutil
+
+    monkeypatch.setenv("FAKE_BLENDER", "nowrite")
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(1 << 30, 1 << 30, 4096))
+    with interchange.Converter() as conv, pytest.raises(interchange.InterchangeError) as e:
+        conv.to_bvh(fake_blender / "b_walk.fbx")
+    line = str(e.value)
+    assert "b_walk.fbx" in line and "disk is full" in line and "TMPDIR" in line, line

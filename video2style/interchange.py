@@ -427,6 +427,19 @@ def _exact_frame_time(bvh: Path, fps: float) -> None:
     bvh.write_text(f"{text[:start]}Frame Time: {1.0 / fps!r}{text[end:]}", encoding="utf-8")
 
 
+def _why_not_written(folder: Path) -> str:
+    """Why a file in temporary ``folder`` may be missing, for an error: a full disk (say so, and how to choose
+    another folder), else nothing."""
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return ""
+    if free < 16 << 20:
+        return (f" in {folder.parent}: its disk is full ({free / 1e6:.1f} MB free); free some space or set TMPDIR "
+                "to a folder on another disk")
+    return ""
+
+
 TEMP_PREFIX = "video2style-interchange-"  # then the pid of the process that made the folder
 
 
@@ -511,7 +524,7 @@ class Converter:
                                       "armature": self.armature, "action": self.action,
                                       "blend": str(where / "scene.blend"), "max_seconds": MAX_CLIP_SECONDS}, path)
             if not bvh.is_file() or bvh.stat().st_size == 0:
-                raise InterchangeError(f"{path}: Blender wrote no motion for it (no answer file)")
+                raise InterchangeError(f"{path}: Blender wrote no motion for it{_why_not_written(where)}")
             info["blend"] = str(where / "scene.blend")
             _exact_frame_time(bvh, info["fps"])
         except BaseException:
