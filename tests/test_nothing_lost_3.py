@@ -540,3 +540,54 @@ def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch):
         conv.to_bvh(fake_blender / "b_walk.fbx")
     line = str(e.value)
     assert "b_walk.fbx" in line and "disk is full" in line and "TMPDIR" in line, line
+
+
+# 14. An armature whose object moves: the motion is part of the clip.
+MOVE = r'''
+import importlib.util, json, sys
+import bpy
+args = json.loads(sys.argv[sys.argv.index("--") + 1])
+spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
+io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
+io._clear()
+io._import(args["path"])
+arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+start, end = io._frame_range(arm.animation_data.action)
+x0 = arm.location.x
+for f, dx in ((start, 0.0), (end, 150.0)):  # the rig's units are centimetres: 1.5 m
+    arm.location.x = x0 + dx
+    arm.keyframe_insert("location", frame=f)
+bpy.context.scene.frame_start, bpy.context.scene.frame_end = start, end
+bpy.ops.export_scene.fbx(filepath=args["out"], add_leaf_bones=False, bake_anim_use_nla_strips=False,
+                         bake_anim_use_all_actions=False)
+print("RESULT" + json.dumps({"ok": True}))
+'''
+
+
+def test_an_armature_that_moves_keeps_its_motion(tmp_path):
+    import subprocess
+
+    from tests.test_interchange import _blender_problem, corpus_bvh, positions
+
+    if _blender_problem() is not None:
+        pytest.skip(f"no usable Blender: {_blender_problem()}")
+    with interchange.Converter() as conv:
+        still = conv.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
+        helper = tmp_path / "move.py"
+        helper.write_text(MOVE)
+        cmd = [*interchange.blender_command()[:-1], str(helper)]
+        moved = tmp_path / "moved.fbx"
+        args = json.dumps({"path": str(still), "out": str(moved), "blender_io": str(interchange.SCRIPT)})
+        env = None if "--python" not in cmd else interchange.blender_env()
+        proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
+        assert "RESULT" in proc.stdout, proc.stdout[-2000:] + proc.stderr[-2000:]
+
+        def travel(clip) -> float:  # metres the hips go along x, first frame to last
+            names, p, _ = positions(conv.to_bvh(clip))
+            return float(p[-1, 0, 0] - p[0, 0, 0])
+
+        gained = travel(moved) - travel(still)
+        assert abs(gained - 1.5) < 0.02, gained
+        assert "itself moves" in " ".join(conv.info(moved)["notes"])
+        written = conv.write(conv.to_bvh(moved), tmp_path / "out" / "moved.fbx", source=moved)  # written back
+        assert abs(travel(written) - travel(moved)) < 0.01

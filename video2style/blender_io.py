@@ -157,6 +157,37 @@ def _scene_fps():
     return r.fps / r.fps_base
 
 
+def _bake_object_motion(arm, act, start, end):
+    """Move the armature object's own animation (``act``'s curves that are not a bone's) into its root bones, in
+    armature space, and hold the object where it is at ``start``: the BVH exporter writes bones only, so object
+    motion would be lost. Returns whether there was any."""
+    own = [fc for fc in act.fcurves if not fc.data_path.startswith("pose.bones[")]
+    if not any(abs(fc.evaluate(f) - fc.evaluate(start)) > 1e-6 for fc in own for f in range(start, end + 1)):
+        return False  # no curves of its own, or still ones (an exporter's constant keys): nothing to carry
+    scene, layer = bpy.context.scene, bpy.context.view_layer
+    roots = [pb for pb in arm.pose.bones if pb.parent is None]
+    scene.frame_set(start)
+    first = arm.matrix_world.copy()
+    posed = {}
+    for f in range(start, end + 1):
+        scene.frame_set(f)
+        delta = first.inverted() @ arm.matrix_world
+        posed[f] = {pb.name: delta @ pb.matrix for pb in roots}
+    for fc in own:
+        act.fcurves.remove(fc)
+    arm.matrix_world = first
+    for f in range(start, end + 1):
+        scene.frame_set(f)
+        for pb in roots:
+            pb.matrix = posed[f][pb.name]
+            layer.update()
+            rot = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(pb.rotation_mode,
+                                                                                              "rotation_euler")
+            for path in ("location", rot):
+                pb.keyframe_insert(path, frame=f, group=pb.name)
+    return True
+
+
 def job_read(job):
     path = job["path"]
     arm, act, arms, acts, notes = _load(path, job.get("armature"), job.get("action"))
@@ -169,6 +200,9 @@ def job_read(job):
                        f"hours at {_scene_fps():g} fps); clips up to {limit / 3600:g} hours are taken")
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = start, end
+    if _bake_object_motion(arm, act, start, end):
+        notes.append(f"armature {arm.name!r} itself moves: its motion is carried by its root bone(s) (styled and "
+                     "written back with the clip)")
     for o in bpy.context.view_layer.objects:
         o.select_set(False)
     bpy.context.view_layer.objects.active = arm
