@@ -591,3 +591,42 @@ def test_an_armature_that_moves_keeps_its_motion(tmp_path):
         assert "itself moves" in " ".join(conv.info(moved)["notes"])
         written = conv.write(conv.to_bvh(moved), tmp_path / "out" / "moved.fbx", source=moved)  # written back
         assert abs(travel(written) - travel(moved)) < 0.01
+
+
+# 15. Keys before frame 0 are read, with a note.
+EARLY = r'''
+import importlib.util, json, sys
+import bpy
+args = json.loads(sys.argv[sys.argv.index("--") + 1])
+spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
+io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
+arm, act, arms, acts, notes = io._load(args["path"], None, None)
+start, end = io._frame_range(act)
+io._shift_keys(act, -11 - start)  # keys from frame -11 (a 240 fps file's, say)
+info = io._read_action({"bvh": args["bvh"]}, args["path"], arm, act, arms, acts, notes)
+print("RESULT" + json.dumps({"info": info, "frames": end - start + 1}))
+'''
+
+
+def test_keys_before_frame_0_are_read_with_a_note(tmp_path):
+    import subprocess
+
+    from motioncore.bvh import read_bvh
+    from tests.test_interchange import _blender_problem, corpus_bvh
+
+    if _blender_problem() is not None:
+        pytest.skip(f"no usable Blender: {_blender_problem()}")
+    with interchange.Converter() as conv:
+        fbx = conv.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
+    helper = tmp_path / "early.py"
+    helper.write_text(EARLY)
+    cmd = [*interchange.blender_command()[:-1], str(helper)]
+    bvh = tmp_path / "early.bvh"
+    args = json.dumps({"path": str(fbx), "bvh": str(bvh), "blender_io": str(interchange.SCRIPT)})
+    env = None if "--python" not in cmd else interchange.blender_env()
+    proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT")), None)
+    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
+    out = json.loads(line[len("RESULT"):])
+    assert read_bvh(bvh)[0].num_frames == out["frames"]  # none of the frames before 0 left out
+    assert out["info"]["frame_start"] == 0 and any("starts at frame -11" in n for n in out["info"]["notes"])

@@ -188,10 +188,30 @@ def _bake_object_motion(arm, act, start, end):
     return True
 
 
+def _shift_keys(act, frames):
+    """Move every key of ``act`` (its handles too) ``frames`` frames later."""
+    for fc in act.fcurves:
+        for kp in fc.keyframe_points:
+            kp.co.x += frames
+            kp.handle_left.x += frames
+            kp.handle_right.x += frames
+        fc.update()
+
+
 def job_read(job):
     path = job["path"]
     arm, act, arms, acts, notes = _load(path, job.get("armature"), job.get("action"))
+    return _read_action(job, path, arm, act, arms, acts, notes)
+
+
+def _read_action(job, path, arm, act, arms, acts, notes):
+    """:func:`job_read` once the armature and action are chosen: the action written as BVH (and the scene saved)."""
     start, end = _frame_range(act)
+    if start < 0:  # Blender's scenes start at frame 0: the frames before it would be left out of the export
+        _shift_keys(act, -start)
+        notes.append(f"action {act.name!r} starts at frame {start}, before Blender's frame 0: all of it is read, "
+                     f"and its result is keyed from frame 0 ({-start} frames later than the original)")
+        start, end = 0, end - start
     if end <= start:
         raise JobError(f"{path}: action {act.name!r} of {arm.name!r} has one frame; nothing to style")
     limit = job.get("max_seconds")
