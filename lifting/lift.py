@@ -40,7 +40,8 @@ def lift_video(
 
     ``rotate``: degrees clockwise (0, 90, 180, 270) to turn the frames before tracking; None (default):
     as they are, and a ValueError naming ``--rotate`` when the person is upside down or on their side
-    in most frames (:func:`lifting.upright.check_upright`)."""
+    in most frames (:func:`lifting.upright.check_upright`), as after any turn but 0 (a turn that turns an upright
+    video is refused the same way)."""
     turn = check_rotation(rotate)
     t0 = time.perf_counter()
     fresh = preload.RECONSTRUCT not in sys.modules
@@ -55,8 +56,8 @@ def lift_video(
             result = None
     if result is None:
         result = track(path, progress, tracker, span, turn)
-    if rotate is None:
-        check_upright(result, path)
+    if rotate != 0:  # --rotate 0: the frames as they are, whatever they show
+        check_upright(result, path, rotate)
     t1 = time.perf_counter()
     lifted = preload.finish(preload.RECONSTRUCT).lift_track(result, str(path), cutoff_hz, **options)
     lifted.info["track_s"] = t1 - t0

@@ -62,10 +62,18 @@ def frame_turn(track: TrackResult) -> tuple[int, float]:
     return best * 90, float(counts[best] / len(turns))
 
 
-def check_upright(track: TrackResult, path: str | Path) -> None:
+def check_upright(track: TrackResult, path: str | Path, rotate: int | None = None) -> None:
     """Raise a one-line ValueError naming ``path`` and the ``--rotate`` that makes the person upright
-    when most of the tracked frames show them turned (upside down, or on their side)."""
+    when most of the tracked frames show them turned (upside down, or on their side). ``rotate``: the turn
+    the frames were given before tracking (``--rotate``; None or 0: none), said when it is what turned them."""
     turn, share = frame_turn(track)
+    if turn and share > MAJORITY and rotate:
+        fix = (rotate - turn) % 360
+        instead = "leave --rotate out" if fix == 0 else f"run again with --rotate {fix}"
+        raise ValueError(
+            f"{path}: --rotate {rotate} leaves the person {_TURNED[turn]} (head {_WHERE[turn]} their feet in "
+            f"{share:.0%} of the tracked frames); {instead} (or --rotate 0 if the person really is turned)"
+        )
     if turn and share > MAJORITY:
         fix = (360 - turn) % 360
         raise ValueError(

@@ -9,22 +9,28 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 TEMP_MARK = ".v2s-tmp-"  # in every temporary name we make, and in no name we publish
+TEMP_NAME_BYTES = 120  # of a file's name, at most this much goes into its temporary name
 _TEMP_NAME = re.compile(r"^\..+" + re.escape(TEMP_MARK) + r"[a-z0-9_]{8}\.[A-Za-z0-9]+$")
 
 
 def temp_beside(path: str | os.PathLike, suffix: str | None = None) -> Path:
-    """A new empty file beside ``path`` (its folder made if needed), ``.NAME.v2s-tmp-xxxxxxxx<suffix>``: made with
+    """A new empty file beside ``path`` (its folder made if needed), ``.NAME.v2s-tmp-xxxxxxxx<suffix>`` (NAME: the first
+    :data:`TEMP_NAME_BYTES` bytes of the path's name): made with
     O_EXCL (never an existing file, never through a symlink planted there), mode 0600 until :func:`publish`.
     ``suffix``: default the path's own, ``.tmp`` if it has none."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}{TEMP_MARK}", suffix=suffix or path.suffix or ".tmp")
+    # the name cut short where it is long: a legal 244-character name must not make a temporary one too long
+    short = os.fsdecode(os.fsencode(path.name)[:TEMP_NAME_BYTES])
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{short}{TEMP_MARK}",
+                               suffix=(suffix or path.suffix or ".tmp")[:16])
     os.close(fd)
     return Path(tmp)
 
@@ -63,3 +69,18 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write ``text`` (UTF-8, ``\\n`` newlines) to ``path`` atomically."""
     with atomic_output(path, ".tmp") as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
         f.write(text)
+
+
+def check_regular_file(path: str | os.PathLike, what: str = "file") -> None:
+    """Refuse, in one line (ValueError), an input that is not a regular file, before anything opens it: a FIFO
+    with no writer would hang ``open()`` for good, a device could be read forever. Symlinks are followed; a
+    missing path raises FileNotFoundError naming it."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such {what}") from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode)
+                else "a socket" if stat.S_ISSOCK(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode) or
+                stat.S_ISBLK(st.st_mode) else "not a regular file")
+        raise ValueError(f"{path}: is {kind}, not a {what}; give a regular file")

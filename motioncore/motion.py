@@ -9,7 +9,7 @@ import torch
 from motioncore import quat
 from motioncore.kinematics import fk
 from motioncore.skeleton import CANONICAL, CanonicalSpec, Skeleton
-from motioncore.span import Span, check_span
+from motioncore.span import Span, check_span, frame_at
 
 
 @dataclass
@@ -99,8 +99,8 @@ def mirror(motion: Motion, spec: CanonicalSpec = CANONICAL) -> Motion:
 def trim(motion: Motion, span: Span, source: str) -> Motion:
     """The frames of ``motion`` with ``start <= time < end`` (``span`` in seconds, None = open end)."""
     start, end = check_span(span, source)
-    first = 0 if start is None else math.ceil(start * motion.fps - 1e-6)
-    stop = motion.num_frames if end is None else min(motion.num_frames, math.ceil(end * motion.fps - 1e-6))
+    first = 0 if start is None else frame_at(start, motion.fps, motion.num_frames)
+    stop = motion.num_frames if end is None else frame_at(end, motion.fps, motion.num_frames)
     if first >= stop:
         raise ValueError(f"{source}: --start/--end select no frames (the clip is {motion.duration:.2f} s long)")
     return motion.slice(first, stop)

@@ -16,3 +16,10 @@ def check_span(span: Span, source: str) -> Span:
     if start is not None and end is not None and end <= start:
         raise ValueError(f"{source}: --end ({end:g} s) must be after --start ({start:g} s)")
     return span
+
+
+def frame_at(seconds: float, fps: float, frames: int) -> int:
+    """The first of ``frames`` frames (at ``fps``) at or after ``seconds``, ``frames`` when none is: a time far past
+    the end (``1e308``, whose frame number overflows) is the end."""
+    x = seconds * fps - 1e-6
+    return frames if not x < frames else max(0, math.ceil(x))

@@ -87,7 +87,10 @@ class Style:
     @staticmethod
     def load(path: Path) -> Style:
         """Read and validate a style file (:func:`validate_style`): it is untrusted input."""
+        from motioncore.files import check_regular_file
+
         path = Path(path)
+        check_regular_file(path, "style file")  # a FIFO would hang open() for good
         try:
             with safe_open(str(path), framework="pt") as f:
                 raw = (f.metadata() or {}).get("video2style")
@@ -216,14 +219,14 @@ def validate_tensors(tensors: dict[str, torch.Tensor], rank: int) -> None:
         elif not name.endswith(("lora_a", "lora_b")) or len(name) > 200:
             raise ValueError(f"tensor {name[:60]!r}: not an adapter tensor")
         elif t.ndim != 2 or (t.shape[0] if name.endswith("lora_a") else t.shape[1]) != rank:
-            raise ValueError(f"tensor {name}: expected rank {rank}, got shape {tuple(t.shape)}")
+            raise ValueError(f"tensor {name[:60]!r}: expected rank {rank}, got shape {tuple(t.shape)}")
         if t.dtype not in ADAPTER_DTYPES:
-            raise ValueError(f"tensor {name[:60]}: expected floating point values, got {t.dtype}")
+            raise ValueError(f"tensor {name[:60]!r}: expected floating point values, got {t.dtype}")
         if not torch.isfinite(t).all():
-            raise ValueError(f"tensor {name[:60]}: holds NaN or infinite values")
+            raise ValueError(f"tensor {name[:60]!r}: holds NaN or infinite values")
         bound = MAX_EXAMPLE_VALUE if name in ("example", "posture_shift") else MAX_ADAPTER_VALUE
         if t.numel() and float(t.abs().max()) > bound:
-            raise ValueError(f"tensor {name[:60]}: expected values of magnitude at most {bound:g}, "
+            raise ValueError(f"tensor {name[:60]!r}: expected values of magnitude at most {bound:g}, "
                              f"got {float(t.abs().max()):.3g}")
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from motioncore.files import atomic_write_text, is_temp_name
+from motioncore.text import printable
 from video2style.paths import LOCK_NAME, check_no_links, check_outputs, inside
 from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
@@ -73,9 +74,11 @@ def style_path(source: Path, key: str, out_dir: Path) -> Path:
 
 def video_keys(videos: list[Path]) -> dict[Path, str]:
     """A name per style source (video, example clip, style file) for its style file and result folder: the stem,
-    or ``stem_ext`` where two share a stem (``x.mp4`` and ``x.mov``)."""
+    or ``stem_ext`` where two share a stem (``x.mp4`` and ``x.mov``) or where the stem is the style files' own folder
+    (``styles.mp4``)."""
     stems = [v.stem for v in videos]
-    return {v: v.stem if stems.count(v.stem) == 1 else f"{v.stem}_{v.suffix[1:].lower()}" for v in videos}
+    return {v: v.stem if stems.count(v.stem) == 1 and v.stem.lower() != "styles" else f"{v.stem}_{v.suffix[1:].lower()}"
+            for v in videos}
 
 
 def sweep_temp_files(out_dir: Path, recursive: bool = True) -> int:
@@ -101,10 +104,24 @@ def _open_lock(path: Path) -> int:
             raise RuntimeError(f"{path}: is a symbolic link, not our lock file; not following it (remove it if "
                                "you did not make it)") from None
         raise
-    if not stat.S_ISREG(os.fstat(fd).st_mode):
+    problem = _not_our_lock(os.fstat(fd))
+    if problem:
         os.close(fd)
-        raise RuntimeError(f"{path}: is not a regular file, so it cannot be our lock file; remove it or use another -o")
+        raise RuntimeError(f"{path}: {problem}, so it cannot be our lock file; not writing it (remove it if you did "
+                           "not make it, or use another -o)")
     return fd
+
+
+def _not_our_lock(st: os.stat_result) -> str | None:
+    """Why an open lock file cannot be one of ours (None when it can): not a regular file, a hard link to a file
+    elsewhere (writing the pid line would truncate that file), or another user's file."""
+    if not stat.S_ISREG(st.st_mode):
+        return "is not a regular file"
+    if st.st_nlink != 1:
+        return f"has {st.st_nlink} hard links (a file elsewhere shares it)"
+    if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+        return f"belongs to another user (uid {st.st_uid})"
+    return None
 
 
 def _held(folder: Path) -> str | None:
@@ -182,17 +199,18 @@ def plan(inputs, content_dir: Path, out_dir: Path | None = None,
     keys = video_keys(videos)
     if out_dir is not None:
         check_batch_outputs(inputs, content_dir, out_dir, list(keys.values()))
-    from video2style.interchange import find_clip_files
+    from video2style.interchange import find_clip_files, result_suffixes
 
     protected: list[Path] = []
-    clips = sorted(content_clips(content_dir, out_dir, progress, protected=protected) + find_clip_files(content_dir, out_dir))
+    clips = sorted(content_clips(content_dir, out_dir, progress, protected=protected)
+                   + find_clip_files(content_dir, out_dir, protected=protected))
     if not clips:
         raise FileNotFoundError(f"{content_dir}: no .bvh clips (nor .fbx, .glb, .gltf)")
     if out_dir is not None:  # and no folder a result goes to is reached through a link planted in -o
         check_no_links(out_dir, {out_dir / key / c.relative_to(content_dir).parent for key in keys.values() for c in clips})
     if protected:  # the user's clips inside -o: no result may land on one
         check_outputs([("-o", out_dir / key / c.relative_to(content_dir).parent / f"{c.stem}{end}") for key in keys.values()
-                       for c in clips for end in (".bvh", "_preview.mp4", "_player.js")],
+                       for c in clips for end in (*result_suffixes(c), "_preview.mp4", "_player.js")],
                       [("a clip in the --content folder", c) for c in protected])
     return videos, clips, keys
 
@@ -295,9 +313,9 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
     try:
         style = _style_for(video, style_path(video, key, out_dir), tag, learn_config, progress, device, rotate)
     except Exception as e:  # noqa: BLE001 - one bad video must not stop the batch
-        report.add(video=video.name, status="failed", error=f"{'style' if is_style_file(video) else 'learn'}: {e}",
-                   seconds=time.time() - t0)
-        progress(f"    failed: {e}")
+        report.add(video=video.name, status="failed",
+                   error=f"{'style' if is_style_file(video) else 'learn'}: {printable(e)}", seconds=time.time() - t0)
+        progress(f"    failed: {printable(e)}")
         return
     model = style_model(load_models(device).prior, style)
     facts = _style_facts(style, options.strength)
@@ -357,7 +375,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, op
         try:
             info = run(clip, where)
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
-            error = str(e)
+            error = printable(e)  # one line, nothing a crafted file or Blender said can reach the terminal raw
             continue
         details = {k: v for k, v in clip_details(info).items() if k not in ("input", "output", "preview", "player", "seconds")}
         return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],

@@ -62,10 +62,25 @@ def _bone_of(data_path):
     return None
 
 
+def _assigned(obj):
+    """The actions an object plays: its active one and those of its NLA strips."""
+    data = obj.animation_data
+    if data is None:
+        return set()
+    found = {data.action} if data.action is not None else set()
+    for track in data.nla_tracks:
+        found |= {strip.action for strip in track.strips if strip.action is not None}
+    return found
+
+
 def _actions_for(arm):
-    """Actions that animate some bone of ``arm``, its active one first."""
+    """Actions that animate some bone of ``arm``, its active one first; an action another armature plays is
+    that one's, not ``arm``'s (two rigs with the same bone names: a prop's armature must not take the walk)."""
     names = {b.name for b in arm.data.bones}
-    found = [a for a in bpy.data.actions if any(_bone_of(fc.data_path) in names for fc in a.fcurves)]
+    own = _assigned(arm)
+    others = set().union(*[_assigned(o) for o in bpy.data.objects if o.type == "ARMATURE" and o != arm])
+    found = [a for a in bpy.data.actions if (a in own or a not in others)
+             and any(_bone_of(fc.data_path) in names for fc in a.fcurves)]
     active = arm.animation_data.action if arm.animation_data else None
     return sorted(found, key=lambda a: (a != active, a.name))
 
@@ -142,14 +157,72 @@ def _scene_fps():
     return r.fps / r.fps_base
 
 
+def _bake_object_motion(arm, act, start, end):
+    """Move the armature object's own animation (``act``'s curves that are not a bone's) into its root bones, in
+    armature space, and hold the object where it is at ``start``: the BVH exporter writes bones only, so object
+    motion would be lost. Returns whether there was any."""
+    own = [fc for fc in act.fcurves if not fc.data_path.startswith("pose.bones[")]
+    if not any(abs(fc.evaluate(f) - fc.evaluate(start)) > 1e-6 for fc in own for f in range(start, end + 1)):
+        return False  # no curves of its own, or still ones (an exporter's constant keys): nothing to carry
+    scene, layer = bpy.context.scene, bpy.context.view_layer
+    roots = [pb for pb in arm.pose.bones if pb.parent is None]
+    scene.frame_set(start)
+    first = arm.matrix_world.copy()
+    posed = {}
+    for f in range(start, end + 1):
+        scene.frame_set(f)
+        delta = first.inverted() @ arm.matrix_world
+        posed[f] = {pb.name: delta @ pb.matrix for pb in roots}
+    for fc in own:
+        act.fcurves.remove(fc)
+    arm.matrix_world = first
+    for f in range(start, end + 1):
+        scene.frame_set(f)
+        for pb in roots:
+            pb.matrix = posed[f][pb.name]
+            layer.update()
+            rot = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(pb.rotation_mode,
+                                                                                              "rotation_euler")
+            for path in ("location", rot):
+                pb.keyframe_insert(path, frame=f, group=pb.name)
+    return True
+
+
+def _shift_keys(act, frames):
+    """Move every key of ``act`` (its handles too) ``frames`` frames later."""
+    for fc in act.fcurves:
+        for kp in fc.keyframe_points:
+            kp.co.x += frames
+            kp.handle_left.x += frames
+            kp.handle_right.x += frames
+        fc.update()
+
+
 def job_read(job):
     path = job["path"]
     arm, act, arms, acts, notes = _load(path, job.get("armature"), job.get("action"))
+    return _read_action(job, path, arm, act, arms, acts, notes)
+
+
+def _read_action(job, path, arm, act, arms, acts, notes):
+    """:func:`job_read` once the armature and action are chosen: the action written as BVH (and the scene saved)."""
     start, end = _frame_range(act)
+    if start < 0:  # Blender's scenes start at frame 0: the frames before it would be left out of the export
+        _shift_keys(act, -start)
+        notes.append(f"action {act.name!r} starts at frame {start}, before Blender's frame 0: all of it is read, "
+                     f"and its result is keyed from frame 0 ({-start} frames later than the original)")
+        start, end = 0, end - start
     if end <= start:
         raise JobError(f"{path}: action {act.name!r} of {arm.name!r} has one frame; nothing to style")
+    limit = job.get("max_seconds")
+    if limit and (end - start) / _scene_fps() > limit:  # before the export, which costs time and disk per frame
+        raise JobError(f"{path}: action {act.name!r} runs from frame {start} to {end} ({(end - start) / _scene_fps() / 3600:.1f} "
+                       f"hours at {_scene_fps():g} fps); clips up to {limit / 3600:g} hours are taken")
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = start, end
+    if _bake_object_motion(arm, act, start, end):
+        notes.append(f"armature {arm.name!r} itself moves: its motion is carried by its root bone(s) (styled and "
+                     "written back with the clip)")
     for o in bpy.context.view_layer.objects:
         o.select_set(False)
     bpy.context.view_layer.objects.active = arm
@@ -288,6 +361,15 @@ FBX_SIMPLIFY = 0.01
 STILL = 1e-5  # a key channel whose values span less than this (relative to 1 or their size) is one value
 
 
+def _embedded_gltf():
+    """The glTF exporter's one-file .gltf format: Blender 4.2 offers it only once the add-on's preference allows it."""
+    addon = bpy.context.preferences.addons.get("io_scene_gltf2")
+    prefs = getattr(addon, "preferences", None)
+    if prefs is not None and hasattr(prefs, "allow_embedded_format"):
+        prefs.allow_embedded_format = True
+    return "GLTF_EMBEDDED"
+
+
 def _export(out, fmt):
     if fmt == "fbx":
         bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
@@ -295,7 +377,7 @@ def _export(out, fmt):
                                  bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
                                  bake_anim_simplify_factor=FBX_SIMPLIFY, apply_unit_scale=True)
     elif fmt in ("glb", "gltf"):
-        bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else "GLTF_EMBEDDED",
+        bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else _embedded_gltf(),
                                   export_animations=True, export_nla_strips=False, export_force_sampling=True,
                                   export_frame_range=True, export_def_bones=False, export_skins=True,
                                   export_yup=True)
@@ -337,6 +419,8 @@ def job_write(job):
 
 
 def main():
+    sys.stdout.write("V2S-READY\n")  # the caller's start-up limit ends here
+    sys.stdout.flush()
     for line in sys.stdin:
         if not line.strip():
             continue

@@ -5,6 +5,7 @@ Run ``video2style COMMAND --help`` for each command's options and examples.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -36,10 +37,10 @@ class Terminated(BaseException):
 
 def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     """Check an output location before any work: a file path must not be a folder, a folder must not be
-    a file, and the nearest existing folder above must be writable. Returns ``path``."""
-    import os
-
+    a file, no name in it may be longer than the disk takes, and the nearest existing folder above must be
+    writable. Returns ``path``."""
     path = Path(path)
+    _check_name_lengths(path, flag)
     if not is_dir and path.is_dir():
         raise CliError(f"{path}: {flag} names a folder; give a file name")
     if is_dir and path.exists() and not path.is_dir():
@@ -52,6 +53,21 @@ def _writable(path: Path, flag: str, is_dir: bool = False) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise CliError(f"{parent}: cannot write here ({flag} {path})")
     return path
+
+
+def _check_name_lengths(path: Path, flag: str) -> None:
+    """Refuse, before any work, an output whose name (or a folder's on the way) is longer than the disk takes."""
+    existing = Path(os.path.abspath(path))
+    while existing != existing.parent and not os.path.isdir(existing):
+        existing = existing.parent
+    try:
+        most = os.pathconf(existing, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        most = 255
+    for part in Path(path).parts:
+        if len(os.fsencode(part)) > most:
+            raise CliError(f"{path}: {flag}: the name {part[:40]}... is {len(os.fsencode(part))} bytes long; this disk "
+                           f"takes names up to {most} bytes")
 
 
 STYLE_FILE_BYTES = 8 << 20  # room a style file needs: about 0.6 MB of adapters and up to 20 s of example
@@ -353,11 +369,13 @@ def learned_line(summary: dict, out: Path) -> str:
     return line
 
 
-def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = ()) -> list[tuple[Path, Path]]:
+def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path | None]] = (),
+                fmt: str | None = None) -> list[tuple[Path, Path]]:
     """``(clip, folder its results go to)``: a folder's clips keep their subfolders under ``out_dir``; results in it
     are not taken as clips (:func:`video2style.pipeline.content_clips`). Refused before any work: two clips that
     would write the same output, and outputs that would overwrite an input (a clip, its folder, or ``others``:
-    ``(what, path)`` of the other files read)."""
+    ``(what, path)`` of the other files read), or a clip of the user's already in a folder no run of ours wrote
+    (:func:`users_clips_in_the_way`). ``fmt``: ``--format`` (results in that format; None: each clip's own)."""
     from video2style.pipeline import content_clips
 
     files, protected = [], []
@@ -369,25 +387,54 @@ def _bvh_inputs(paths: list[Path], out_dir: Path, others: list[tuple[str, Path |
             files.append((p, out_dir))
     from video2style.interchange import find_clip_files
 
-    files += [(q, out_dir / q.relative_to(p).parent) for p in paths if p.is_dir() for q in find_clip_files(p, out_dir)]
+    files += [(q, out_dir / q.relative_to(p).parent) for p in paths if p.is_dir()
+              for q in find_clip_files(p, out_dir, protected=protected)]
     if not files:
         raise CliError("apply: no BVH files (nor FBX/glTF clips) found in the inputs")
     seen: dict[Path, Path] = {}
     for clip, where in files:
-        target = where / f"{clip.stem}.bvh"
+        target = where / f"{clip.stem}.bvh"  # every result is first a BVH of this name, whatever its format
         if target in seen:
-            raise CliError(f"apply: {seen[target]} and {clip} would both write {target}; give their folder "
+            other = seen[target]
+            if other.parent == clip.parent:
+                raise CliError(f"apply: {other} and {clip} share the name {clip.stem!r} in one folder; their results "
+                               f"(in {where}) are made under that one name: rename one or apply them separately")
+            raise CliError(f"apply: {other} and {clip} would both write {target}; give their folder "
                            "instead (subfolders are kept) or apply them separately")
         seen[target] = clip
-    outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files for end in (".bvh", "_preview.mp4", "_player.js")]
+    check_no_links(out_dir, dict.fromkeys(where for _, where in files))
+    from video2style.interchange import result_suffixes
+
+    outputs = [("-o", where / f"{clip.stem}{end}") for clip, where in files
+               for end in (*result_suffixes(clip, fmt), "_preview.mp4", "_player.js")]
     outputs += [("-o", out_dir / name) for name in ("report.json", "index.html")]
     folders = [("-o", where) for where in dict.fromkeys(where for _, where in files)]
     check_outputs(outputs + folders,  # nor a clip's own folder: its results (and variants) would land beside it
                   [("the input clip", clip) for clip, _ in files] + [("the folder of the input clip", clip.parent)
                                                                      for clip, _ in files] + list(others)
-                  + [("a clip in the input folder", clip) for clip in protected])
-    check_no_links(out_dir, dict.fromkeys(where for _, where in files))
+                  + [("a clip in the input folder", clip) for clip in protected]
+                  + [("a clip of yours in a folder no run of video2style wrote", p)
+                     for p in users_clips_in_the_way(path for _, path in outputs)])
     return files
+
+
+def users_clips_in_the_way(outputs) -> list[Path]:
+    """The clip files (BVH, FBX, glTF) among ``outputs`` that exist already in a folder no run of ours has held
+    (no ``.video2style.lock`` in it or above): the user's own, which a result must never replace."""
+    from video2style.interchange import CLIP_SUFFIXES
+    from video2style.paths import LOCK_NAME
+
+    found, ours = [], {}
+    for path in outputs:
+        path = Path(path)
+        if path.suffix.lower() not in {".bvh", *CLIP_SUFFIXES} or not os.path.lexists(path):
+            continue
+        folder = path.parent
+        if folder not in ours:
+            ours[folder] = any((q / LOCK_NAME).exists() for q in [folder, *Path(os.path.abspath(folder)).parents])
+        if not ours[folder]:
+            found.append(path)
+    return found
 
 
 def cmd_apply(args) -> None:
@@ -408,11 +455,22 @@ def cmd_apply(args) -> None:
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
     with folder_lock(args.output, "apply", [where for _, where in files]):  # two runs into one folder would mix outputs
+        _sweep_outputs(where for _, where in files)
         failed, rows = _apply_all(run_item, files)
         if len(rows) > failed:  # a run that made nothing leaves nothing (its errors are printed)
             _apply_pages(rows, args.output, heading, facts, page=not args.no_preview)
     if failed:
         raise CliError(f"{failed} of {len(files)} clips failed (listed above)")
+
+
+def _sweep_outputs(folders) -> None:
+    """Remove the temporary files an interrupted run left in the folders this apply writes (only files of our own
+    making, :func:`video2style.batch.sweep_temp_files`); called holding the output folder's lock."""
+    from video2style.batch import sweep_temp_files
+
+    stale = sum(sweep_temp_files(Path(f), recursive=False) for f in dict.fromkeys(folders) if Path(f).is_dir())
+    if stale:
+        print(f"removed {stale} temporary file(s) left by an interrupted run", file=sys.stderr)
 
 
 def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str, page: bool = True) -> None:
@@ -425,7 +483,7 @@ def _apply_pages(rows: list[dict], out_dir: Path, heading: str, facts: str, page
     report = BatchReport([{"video": heading, "style": facts, **r} for r in rows])
     print(f"report: {write_report(report.rows, out_dir)}")
     if page:
-            print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every "
+        print(f"index: {write_index(report, out_dir, 'video2style apply results')} (open it in a browser: every "
               "result beside its content clip and style example)")
 
 
@@ -439,9 +497,11 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict
         try:
             info = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
+            from motioncore.text import printable
+
             failed += 1
-            print(f"[{i}/{len(files)}] {path}: error: {e}", file=sys.stderr)
-            rows.append({"clip": path.name, "content": str(path), "status": "failed", "error": str(e)})
+            print(f"[{i}/{len(files)}] {printable(path)}: error: {printable(e)}", file=sys.stderr)
+            rows.append({"clip": path.name, "content": str(path), "status": "failed", "error": printable(e)})
             continue
         outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
         details = clip_details(info)
@@ -468,7 +528,8 @@ def _diffusion_runner(args, joint_map):
             raise CliError(f"apply: --{flag} belongs to --method park")
     options = apply_options(args)  # one line for a bad --strength or --tempo, before the style loads
     style = args.apply_style = Style.load(args.style)
-    files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)])
+    files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)],
+                        getattr(args, "format", None))
     model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
     warning = base_model_warning(style, args.style)
     if warning:
@@ -484,7 +545,8 @@ def _park_runner(args, joint_map):
         raise CliError("apply --method park: give --domain (one of the style domains, e.g. elderly)")
     inputs = ([args.style] if args.style is not None else []) + args.inputs  # no style file with this method
     files = _bvh_inputs(inputs, args.output, [("the --joint-map", args.joint_map), ("the --reference clip", args.reference),
-                                              ("the --park-weights file", args.park_weights)])
+                                              ("the --park-weights file", args.park_weights)],
+                        getattr(args, "format", None))
     model = park_model(args.park_weights, args.device)
     request = ParkRequest(args.domain, args.seed, args.variants, args.reference, args.mix, args.mix_steps)
     request.validate(list(model.config.domains))
@@ -1019,17 +1081,22 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except (CliError, ValueError, FileNotFoundError, RuntimeError) as e:
+        from motioncore.text import printable
         from video2style.interchange import named
 
-        print(f"video2style {args.command}: error: {named(args, str(e))}", file=sys.stderr)
+        print(f"video2style {args.command}: error: {printable(named(args, str(e)))}", file=sys.stderr)
         return 1
     except OSError as e:  # a full or read-only disk, a vanished folder: one line naming the path
+        from motioncore.text import printable
+
         where = f"{e.filename}: " if e.filename else ""
-        print(f"video2style {args.command}: error: {where}{e.strerror or e}", file=sys.stderr)
+        print(f"video2style {args.command}: error: {printable(f'{where}{e.strerror or e}')}", file=sys.stderr)
         return 1
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        if getattr(args, "clip_converter", None) is not None:  # Blender ended, temporary BVH files removed
+            args.clip_converter.close()
     return 0
 
 
