@@ -39,8 +39,8 @@ def main() -> None:
 
     from evaluation.metrics import LIMBS, limb_stray
     from motioncore.representation import encode
-    from transfer.spans import stylize_motion
     from transfer.bundle import load_models
+    from transfer.spans import stylize_motion
     from transfer.style_file import Style, style_model
     from video2style.pipeline import learn_file, read_clip
 

@@ -69,9 +69,9 @@ def main() -> None:
 
     from evaluation.classifiers import default_weights, load_classifier, run_batched
     from motioncore.representation import decode, encode
-    from transfer.spans import stylize_motion
     from transfer.bundle import load_models
     from transfer.dataset import MotionDataset
+    from transfer.spans import stylize_motion
     from transfer.style_file import Style, style_model
     from video2style.paths import default_dataset_dir
     from video2style.pipeline import learn_file, read_clip

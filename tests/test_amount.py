@@ -9,7 +9,13 @@ import torch
 
 from motioncore.representation import FEATURES
 from tests.test_learn import _config, toys  # noqa: F401 - the toy models' fixture
-from transfer.amount import GAIN_RANGE, calibrate_gain, calibration_clips, describe_amount, style_distance
+from transfer.amount import (
+    GAIN_RANGE,
+    calibrate_gain,
+    calibration_clips,
+    describe_amount,
+    style_distance,
+)
 from transfer.dataset import MotionDataset
 from transfer.learn import learn_style
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings

@@ -517,7 +517,11 @@ def test_an_action_of_days_is_refused_before_its_export(odd_files, capsys):
                                                             (180, 270, "run again with --rotate 270")])
 def test_a_rotate_that_turns_an_upright_video_is_refused(tmp_path, monkeypatch, rotate, seen_turn, said):
     from lifting import lift
-    from tests.lifting.test_video_rotation import fake_track, standing_landmarks, turned_pixels
+    from tests.lifting.test_video_rotation import (
+        fake_track,
+        standing_landmarks,
+        turned_pixels,
+    )
 
     video = tmp_path / "upright.mp4"
     video.write_bytes(b"not decoded: the tracking is replaced")

@@ -19,7 +19,13 @@ from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, encode, facing_angle
 from motioncore.skating import motion_skating
-from transfer.apply import READ_FRAMES, StyleStream, decoder, guard_features, neutral_caption
+from transfer.apply import (
+    READ_FRAMES,
+    StyleStream,
+    decoder,
+    guard_features,
+    neutral_caption,
+)
 from transfer.device import model_device
 
 

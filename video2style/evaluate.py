@@ -371,7 +371,12 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
     ``apply`` applies (:func:`transfer.apply.stylize_motion`) at ``strength`` to the neutral clip of each action;
     writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate``: each style
     calibrated (:mod:`transfer.amount`; off: gain 1, the default). ``style_cache``: a folder keeping the learned styles between runs."""
-    from evaluation.dev_styles import fit_judges, format_dev_table, read_archive, run_dev_protocol
+    from evaluation.dev_styles import (
+        fit_judges,
+        format_dev_table,
+        read_archive,
+        run_dev_protocol,
+    )
     from transfer.apply import read_motion, stylize_motion
     from transfer.bundle import load_models
     from transfer.learn import learn_style

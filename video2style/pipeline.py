@@ -223,8 +223,18 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     if Path(path).suffix.lower() in VIDEO_SUFFIXES:
         _announce_long_video(Path(path), span, progress)
     clip = read_clip(path, joint_map, progress=progress, span=span, rotate=rotate)
-    progress(f"      {clip.canonical.num_frames} frames on the canonical skeleton ({elapsed(t0)})"
-             + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
+    read, src = clip.canonical, clip.source  # what each number is: the file's own frames, then the canonical ones
+    if src is not None:
+        length = f"{src.duration:.2f} s: {src.num_frames} frames at {src.fps:g} fps in the file"
+    elif span == (None, None):  # a video, whole: its own frames (tracking may start where the person is first seen)
+        from lifting.video import video_info
+
+        fps, frames, _, _ = video_info(Path(path))
+        length = f"{frames / fps:.2f} s: {frames} frames at {fps:g} fps in the video"
+    else:
+        length = f"{read.duration:.2f} s of motion tracked"
+    progress(f"      {length} ({read.num_frames} frames at {read.fps:g} fps on the canonical skeleton; read in "
+             f"{elapsed(t0)})" + (f"; {ROLLS_NOTE}" if clip.rolls_conformed else ""))
     m = load_models(device)
     features = m.normalize(encode(clip.canonical), inplace=True)  # in place: a long take's features once
     bvh = clip.rig is not None  # a video's motion starts where the person was first tracked
@@ -235,11 +245,17 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"      learning from {used[0]:.1f}-{used[1]:.1f} s {where} ({clip.canonical.duration:.0f} s read): "
                  f"its most typical {MAX_EXAMPLE_SECONDS:g} s; --start/--end choose another part")
     example = m.normalize(encode(canonical))
+    confident = True  # the content: given, or recognised with confidence (else a guess, said as one)
     if text is None:
         reading = read_motion(m.motion_encoder, m.text_encoder, example)
-        text = reading.content
-        progress(f"[2/4] content by retrieval: {reading.content!r} (nearest captions {reading.top[0][0]!r}, "
-                 f"{reading.top[1][0]!r}; {'confident' if reading.confident else 'not confident: give --text'})")
+        text, confident = reading.content, bool(reading.confident)
+        if confident:
+            progress(f"[2/4] content by retrieval: {reading.content!r} (nearest captions {reading.top[0][0]!r}, "
+                     f"{reading.top[1][0]!r}; confident)")
+        else:
+            progress(f"[2/4] content not recognised with confidence: learning against the closest guess "
+                     f"{reading.content!r} (nearest captions {reading.top[0][0]!r}, {reading.top[1][0]!r}); "
+                     "give --text to say what the person does")
     else:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
@@ -263,10 +279,11 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
     style.meta["base_model_sha256"] = file_sha256(m.prior_path) if m.prior_path else None
     style.meta.update({"source": Path(path).name, "example_seconds": round(canonical.duration, 2),
                        "span": list(span), "example_part": [round(t, 2) for t in used], "partial": partial,
-                       "tempo": tempo})
+                       "tempo": tempo, "content_confident": confident})
     progress(f"[4/4] writing {out_path}")
     style.save(out_path)
-    return {"style": style_words, "content": style.meta["content"], "seconds": time.time() - t0,
+    return {"style": style_words, "content": style.meta["content"], "content_confident": confident,
+            "seconds": time.time() - t0,
             "iterations": style.meta["iterations"], "bytes": Path(out_path).stat().st_size, "partial": partial}
 
 
@@ -326,8 +343,13 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
                                      neutralize)
     decided["tempo"] = speed
     extra = example_panels(style, clip.canonical.num_frames)
+    from video2style.summary import motion_change
+
     info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
-            "rolls_conformed": clip.rolls_conformed}
+            "rolls_conformed": clip.rolls_conformed, "change": motion_change(clip.canonical, result),
+            # the written file's own length (a BVH's frames and frame rate; a video's result is canonical)
+            "file_frames": clip.canonical.num_frames if clip.source is None else clip.source.num_frames,
+            "file_fps": (clip.canonical if clip.source is None else clip.source).fps}
     if long_take:
         info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
                                "applied a span at a time only at --tempo 1; memory grows with this take")
