@@ -180,11 +180,13 @@ def test_a_second_apply_into_the_same_folder_is_refused_while_the_first_writes(t
     first.join(30)
     err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
     assert codes == [0] and len(err) == 1 and "another apply is writing here" in err[0] and str(out) in err[0]
-    assert {p.read_text() for p in out.iterdir() if p.name != LOCK_NAME} == {"a.v2s"}  # one style's outputs only
+    pages = ("report.json", "index.html")  # apply's report and page, of the run that wrote: a.v2s's
+    assert {p.read_text() for p in out.iterdir() if p.name not in (LOCK_NAME, *pages)} == {"a.v2s"}  # one style's outputs
+    assert all("a.v2s" in (out / n).read_text() and "b.v2s" not in (out / n).read_text() for n in pages)
     with batch.folder_lock(out, "batch"):  # and a batch holding the folder stops an apply before any work
         assert main(["apply", str(tmp_path / "b.v2s"), str(clip), "-o", str(out)]) == 1
     assert "another batch is writing here" in capsys.readouterr().err
-    assert {p.read_text() for p in out.iterdir() if p.name != LOCK_NAME} == {"a.v2s"}
+    assert {p.read_text() for p in out.iterdir() if p.name not in (LOCK_NAME, *pages)} == {"a.v2s"}
 
 
 # 4. A batch never reads its own results back as content.
