@@ -1037,7 +1037,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--dev-styles", type=Path, metavar="DIR",
                     help="the second unseen-style protocol: the folder holding bandai1-unseen-dev-styles.tar.xz and "
                          "bandai1-seen-styles.tar.xz (five Bandai-1 styles no model saw, each learned from its walk and "
-                         "applied to ten neutral actions; hand-feature judges); --strengths S: its first value")
+                         "applied to ten neutral actions; hand-feature judges); --strengths S: its first value; "
+                         "--methods ours-calibrated: each style calibrated (learn --calibrate)")
     ev.add_argument("--unseen", action="store_true",
                     help="the unseen-style protocol: models trained without three styles (elderly, exhausted, feminine), "
                          "neutral content to those styles and, from the same models, to the others")
