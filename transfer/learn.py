@@ -22,7 +22,8 @@ from torch.profiler import record_function
 from tqdm import tqdm
 
 from motioncore.representation import FEATURES
-from transfer.apply import neutralize_windows
+from transfer.amount import calibrate_gain, calibration_clips, style_distance
+from transfer.apply import apply_style_features, neutralize_windows
 from transfer.captions import caption
 from transfer.device import model_device
 from transfer.edit import TRAJECTORY, neutralize
@@ -182,9 +183,6 @@ def _calibrate(bundle, model, style: Style, dataset, example: torch.Tensor, pair
                apply: ApplyConfig) -> dict:
     """The style's calibrated amount (:func:`transfer.amount.calibrate_gain`): the example's distance from its pair,
     and the gain that moves neutral clips of other actions as far at ``--strength 0.5``."""
-    from transfer.amount import calibrate_gain, calibration_clips, style_distance
-    from transfer.apply import apply_style_features
-
     raw_example = bundle.denormalize(example.cpu()) if bundle.mean is not None else None
     device = model_device(model)
 
