@@ -56,7 +56,8 @@ QUICK = {"per_content": 2, "examples_per_style": 1}
 # The unseen-style protocol (models trained without the held-out styles): neutral content only, every neutral
 # clip of each content in the full run (6 per content on test, 3 on val), targets the held-out (or the seen) styles.
 UNSEEN_FULL = {"per_content": 6, "examples_per_style": 7}
-HELD_OUT_STYLES = ("elderly", "exhausted", "feminine")  # strong, subtle and between: see docs/RESULTS.md
+HELD_OUT_STYLES = ("elderly", "exhausted", "feminine")  # strong, subtle and between: see
+# docs/archive/RESULTS-notebook.md#first-ablation-val-split-the-defaults-of-that-time
 
 
 @dataclass(frozen=True)

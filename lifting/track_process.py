@@ -1,6 +1,7 @@
 """Tracking in a child process, so that the parent's import of the lift's torch side runs beside it
 without sharing a GIL with the tracking loop (:func:`lifting.lift.lift_video` uses it in a process
-that has not imported that side yet; measured in docs/RESULTS.md, "The first hour").
+that has not imported that side yet; measured in
+docs/archive/RESULTS-notebook.md#third-round-2026-12-02-tracking-in-a-child-process).
 
 The child (``python -m lifting.track_process VIDEO START END PROGRESS CORES ROTATE PARENT``) runs
 :func:`lifting.tracking.track` with ONNX inference on one core fewer than the machine has (``CORES``; at most

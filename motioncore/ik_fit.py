@@ -312,7 +312,8 @@ def decode_guarded(feats: torch.Tensor, fps: float, start_yaw: float = 0.0, star
 # Joints whose bone roll is a convention of the training data, not a movement: the dataset's non-mirrored clips
 # keep their mean local rotations within 26 deg of :data:`REFERENCE_LOCAL` (val, test; 54 deg at most in train,
 # a Bandai-1 wave), videos within 30 deg, while rigs retargeted by the shortest arc (Xia, fair1) land 148-180 deg
-# off: 90 deg about the Spine, Chest and Shoulders, 180 deg about UpperLeg_R (docs/RESULTS.md, 2026-12-05).
+# off: 90 deg about the Spine, Chest and Shoulders, 180 deg about UpperLeg_R (2026-12-05,
+# docs/archive/RESULTS-notebook.md#foreign-rigs-bone-rolls-brought-into-the-datas-convention-issue-23-xia).
 ROLL_CONVENTION_JOINTS = ("Spine", "Chest", "Shoulder_L", "Shoulder_R", "UpperLeg_L", "UpperLeg_R")
 ROLL_CONVENTION_DEG = 90.0
 # Leaves that keep their own turn when :func:`conform_rolls` solves a motion again (the head's nod, the wrists);

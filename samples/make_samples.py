@@ -10,7 +10,9 @@ Content clips are text-to-motion samples of the project's diffusion prior (neutr
 own rolls drift, and apply would read such a clip as a foreign rig; ``--from-rotations`` decodes the rotation
 channels instead), written as BVH on the canonical skeleton in centimetres at 30 fps. Each is
 drawn as long as the prior's training clips of its action (``transfer.content_bank.DATA_FRAMES``), at most 80
-frames (4 s, the prior's window): the run 57 (drawn longer, a run lifts its feet less, docs/RESULTS.md). The style video is a prior
+frames (4 s, the prior's window): the run 57 (drawn longer, a run lifts its feet less,
+docs/archive/RESULTS-notebook.md#the-prior-draws-well-only-as-long-as-its-training-windows-issue-24).
+The style video is a prior
 sample of an elderly-style walk rendered by the project's humanoid renderer
 (:mod:`lifting.render_humanoid`), which the BlazePose tracker reads like a filmed person.
 """
@@ -42,7 +44,8 @@ def main(argv: list[str] | None = None) -> None:
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     # seed 2: of the draws 0-2, the one whose walk, turn and run slide least and lift most, for the 34,000-step prior,
-    # the 35,743-step one and its planted-feet guide (docs/RESULTS.md, "Planted feet at sampling": seed 0's turn slides
+    # the 35,743-step one and its planted-feet guide
+    # (docs/archive/RESULTS-notebook.md#everything-downstream-remade-issue-24-item-5: seed 0's turn slides
     # in 8.9 % of frames, seed 1's turn lifts 12.3 cm; seed 2 slides in no frame)
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--out", type=Path, default=HERE)

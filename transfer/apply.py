@@ -30,7 +30,8 @@ from transfer.posture import (
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
 from transfer.windows import WindowStream, crossfade_overlap, window_starts
 
-# Thresholds of a confident reading, chosen on the val split (docs/RESULTS.md, "When apply neutralises"): every
+# Thresholds of a confident reading, chosen on the val split (docs/archive/RESULTS-notebook.md#content-safety,
+# "When apply neutralises first"): every
 # Bandai val original has a top similarity >= 0.82 and P(content) >= 0.5 at the 5th percentile; foreign clips
 # (fair1, Xia) reach at most 0.73 and 0.31; P(styled) >= 0.8 flags all styled val clips and no normal one.
 CONFIDENT_SIMILARITY = 0.78

@@ -19,7 +19,8 @@ from transfer.captions import BANDAI2_CONTENTS, content_caption
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
 # The median length in frames (20 fps) of the prior's neutral training clips of each content (the dataset cache's
-# Bandai-2 train split, unmirrored; docs/RESULTS.md, "The content bank as long as the data's clips"): text-to-motion
+# Bandai-2 train split, unmirrored; docs/archive/RESULTS-notebook.md#the-content-bank-as-long-as-the-datas-clips):
+# text-to-motion
 # draws no content longer than the prior saw it (a run drawn at 80 frames lifts its feet 29.5 cm, at 57 39 cm).
 DATA_FRAMES = {"raise-up-both-hands": 38, "raise-up-left-hand": 38, "raise-up-right-hand": 40, "run": 57, "walk": 174,
                "walk-turn-left": 106, "walk-turn-right": 110, "wave-both-hands": 135, "wave-left-hand": 136,

@@ -26,7 +26,7 @@ class DenoiserConfig:
     derive_positions: bool = False  # x0's joint-position channels are the joints its rotation channels and root height
     # place (motioncore.representation.positions_from_rotations), not predicted: the two channel sets cannot disagree
     # (needs the features' normalisation, :meth:`Denoiser.set_normalization`; measured as a stage of the shipped prior:
-    # docs/RESULTS.md, "Derived positions as a training stage")
+    # docs/archive/RESULTS-notebook.md#planted-feet-at-sampling-issue-24, "Derived positions as a training stage")
 
 
 class Denoiser(nn.Module):

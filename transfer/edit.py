@@ -87,7 +87,8 @@ def stylize(model, scheduler: DiffusionScheduler, x: torch.Tensor, learned: Lear
 # model's result moves against the prior's (temporal standard deviation over the window, mean over channels):
 # at STILL_RATIO[0] or below only the slow part of the difference is kept (Gaussian, STILL_SMOOTHING frames), at
 # STILL_RATIO[1] or above all of it, eased between. Styles learned from the dataset's clips move 0.96-1.33 x as much
-# as the prior; the demo's elderly example's 0.21 x (docs/RESULTS.md, "A style model's still pose").
+# as the prior; the demo's elderly example's 0.21 x
+# (docs/archive/RESULTS-notebook.md#a-style-models-still-pose-the-demos-feet-issue-23-item-5-issue-24s-walks-shuffle).
 STILL_RATIO = (0.4, 0.7)
 STILL_SMOOTHING = 4.0
 

@@ -42,7 +42,9 @@ class PriorTrainConfig:
     seed: int = 0
     exclude_styles: tuple[str, ...] = ()  # styles whose clips and captions the model never sees (unseen protocol)
     precision: str = "fp32"  # "bf16": the training step's forward under bfloat16 autocast (fp32 weights, optimizer
-    # and losses; 1.6x faster on a CPU with avx512_bf16, docs/RESULTS.md); the validation loss stays fp32
+    # and losses; 1.6x faster on a CPU with avx512_bf16,
+    # docs/archive/RESULTS-notebook.md#the-priors-campaign-the-decay-issue-24-2026-12-03-17391915);
+    # the validation loss stays fp32
     val_every: int = 250  # steps between validation losses (val.csv); 0 = none
     val_windows: int = 128  # fixed val windows, noise and steps: the validation loss is comparable over a run
     # weight of the FK consistency term (:func:`fk_loss`): the joints implied by the predicted rotation channels
@@ -118,7 +120,8 @@ def contact_guide(mean: torch.Tensor, std: torch.Tensor, rate: float, iterations
     size ``rate`` down its own :func:`contact_loss`, each clip's alone (so a clip's draw does not depend on the
     others in its batch). Only the x0 prediction moves, through the motion code's forward kinematics; the denoiser
     is not differentiated. The rotation channels are planted (what ``representation.decode`` reads); the position
-    channels keep their own feet (guiding both was measured, docs/RESULTS.md, "Planted feet at sampling")."""
+    channels keep their own feet (guiding both was measured,
+    docs/archive/RESULTS-notebook.md#planted-feet-at-sampling-issue-24)."""
     if rate < 0 or iterations < 0:
         raise ValueError(f"contact_guide: expected rate >= 0 and iterations >= 0, got {rate}, {iterations}")
 

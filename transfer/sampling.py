@@ -27,13 +27,13 @@ Guide = Callable[[torch.Tensor], torch.Tensor]  # an x0 prediction (B, T, D) -> 
 class TextToMotion:
     """How motion is drawn from text alone: the content bank, the demo's sample clips, the prior's benchmarks.
     (Style learning's neutral pair is an edit with its own settings, :class:`transfer.style_config.LearnConfig`.)
-    Chosen in docs/RESULTS.md, "Planted feet at sampling".
+    Chosen in docs/archive/RESULTS-notebook.md#planted-feet-at-sampling-issue-24.
 
     ``contact_rate``, ``contact_iterations``: each x0 prediction takes that many gradient steps of that size down
     the planted feet's travel (:func:`transfer.prior.contact_guide`); 0 turns it off.
     ``derive_positions``: then each x0 prediction's joint-position channels are replaced by the joints its rotation
     channels place (:func:`transfer.denoiser.derive_position_channels`), so the two channel sets of a draw agree
-    (chosen in docs/RESULTS.md, "Position channels derived at sampling").
+    (chosen in docs/archive/RESULTS-notebook.md#position-channels-derived-at-sampling-shipped).
     """
 
     steps: int = 50  # DDIM steps

@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
-MIN_ITERATIONS = 25  # fewer: a cruder style that changes the action more often (val split, docs/RESULTS.md)
+MIN_ITERATIONS = 25  # fewer: a cruder style that changes the action more often (val split,
+# docs/archive/RESULTS-notebook.md#deterministic-learning)
 MAX_RANK = 64
 MAX_ITERATIONS = 10_000  # about 10 hours of learning on a 2-core CPU at 3.7 s per iteration
 
@@ -25,17 +26,20 @@ class LearnConfig:
     transfer_ddim_steps: int = 6  # the number of DDIM steps from K to 0 (K = 300 with 20 steps over 1000)
     rank: int = 8
     lr: float = 2e-3
-    iterations: int = 40  # the budget (chosen on the val split, docs/RESULTS.md): same example + seed = same style
+    iterations: int = 40  # the budget: same example + seed = same style (chosen on the val split,
+    # docs/archive/RESULTS-notebook.md#deterministic-learning)
     max_seconds: float | None = None  # optional wall-clock cap on the whole learning; None = no cap
     lambda_s: float = 0.0  # L_s, the style words' text target (Hu et al. eq. 11): 0 by default, since for a style the
-    # encoders never saw the words carry no motion meaning (docs/RESULTS.md, "Styles the models never saw")
+    # encoders never saw the words carry no motion meaning
+    # (docs/archive/RESULTS-notebook.md#styles-the-models-never-saw-issue-23)
     content_batch: int = 8
     window: int = 80
     rec_windows: int = 1  # windows of the example (with their pair's) per L_rec iteration, each with its own noise
     seed: int = 0
     pair_generation: bool = True  # False (ablation): fine-tune from the example itself instead of its neutral pair
     lambda_p: float = 0.1  # prior preservation on the content batch (not in Hu et al.; 0 = the paper; 0.1 with
-    # lambda_dir 2 chosen on both protocols' val splits, docs/RESULTS.md)
+    # lambda_dir 2 chosen on both protocols' val splits,
+    # docs/archive/RESULTS-notebook.md#the-unseen-style-protocol-on-the-34000-step-held-out-prior-issue-23-2026-12-04)
     lambda_stat: float = 0.0  # word-free: the style's change on content shifts feature statistics as the example
     # differs from its pair (transfer.style_losses.statistics_loss)
     stat_std: bool = True  # the statistics loss matches log standard deviations too, not only means
@@ -46,14 +50,16 @@ class LearnConfig:
     # example's against its pair does (transfer.style_losses.statistics_direction_loss)
     pair_between: bool = True  # the pair's body channels held (time-means) where the example or the content source's
     # neutral clips of its action hold them (transfer.posture.bound_pair): a tilt the prior drew is not learned (chosen
-    # on the val splits of both protocols, docs/RESULTS.md "A neutral pair held where neutral clips hold the body")
+    # on the val splits of both protocols,
+    # docs/archive/RESULTS-notebook.md#a-neutral-pair-held-where-neutral-clips-hold-the-body-issue-23)
     pair_windowed: bool = True  # an example longer than ``window`` gets its pair drawn in ``window``-frame windows
     # crossfaded over a quarter of one, as apply draws: the prior, trained on 80-frame windows, draws longer motion
-    # shuffling (docs/RESULTS.md "The neutral pair in windows"); False: drawn whole, as before 2026-12-06
+    # shuffling (docs/archive/RESULTS-notebook.md#the-neutral-pair-in-windows-issue-23);
+    # False: drawn whole, as before 2026-12-06
     calibrate: bool = False  # after learning, the gain that makes results on neutral clips of other actions differ from
     # their content as much as the example differs from its pair (transfer.amount; learn --calibrate). Off by default:
     # on the val split and the dev styles it shows more style but reads the action less often than the targets allow
-    # (dev actions 82 %, target 85; docs/RESULTS.md "A style's amount follows its example")
+    # (dev actions 82 %, target 85; docs/results.md#calibrated-amount-opt-in)
 
 
 @dataclass
@@ -64,7 +70,8 @@ class ApplyConfig:
     apply_mode: str = "difference"  # regenerate: the style model redraws the content from step K;
     # difference: content + scale * (style model - prior), both from the same noisy content (the prior's error cancels)
     style_scale: float = 1.045  # difference mode: the scale of the style's difference at --strength 0.5 (chosen on the
-    # val splits of both protocols with content_keep 0.5, docs/RESULTS.md "A content keeper"; 0.95 before); regenerate: guidance weight
+    # val splits of both protocols with content_keep 0.5; 0.95 before,
+    # docs/archive/RESULTS-notebook.md#a-content-keeper-at-apply-issue-23-2026-12-05-09001200); regenerate: guidance weight
     neutralize_step: int = 950  # apply: a styled content clip is noised this far and redrawn neutral first
     guided_difference: bool = False  # difference mode: the scale guides the style chain (x0 = P + w (S - P)) instead
     # of multiplying its final difference
@@ -77,26 +84,31 @@ class ApplyConfig:
     # (motioncore.limbs.guard_limbs); 0: off (the ablation)
     posture: float = 0.5  # apply: 0-1, how far the result's time-mean change of each body channel is drawn from the
     # style model's towards the example's change against its neutral pair (transfer.posture.match_posture; 0.5 chosen
-    # on the unseen-style protocol's val split, docs/RESULTS.md "Posture"); style files without the change: none
+    # on the unseen-style protocol's val split,
+    # docs/archive/RESULTS-notebook.md#posture-where-the-example-holds-its-body-carried-at-apply-issue-23-2026-12-05);
+    # style files without the change: none
     posture_between: bool = True  # apply: the posture takes each channel's time-mean no further than where the content
     # and the example hold it (transfer.posture.posture_between: a neutral pair drawn tilted would tilt the result;
-    # chosen on the val splits of both protocols, docs/RESULTS.md "A posture between the content's and the example's")
+    # chosen on the val splits of both protocols,
+    # docs/archive/RESULTS-notebook.md#a-posture-between-the-contents-and-the-examples-issue-23)
     arm_gate: float = 0.0  # apply: metres; an arm whose hand is further than this from every place the example's hand
     # takes keeps the content's motion, easing over ARM_GATE_WIDTH (transfer.posture.arm_gate); 0: off
     arm_travel: float = 0.5  # apply: when a travelling example's style is applied to a clip that travels less than this
     # share of its ground speed, the arms keep the content's motion and are held where the example holds them against
     # its pair, in proportion below it (transfer.posture.arm_motion_share; 0.5 chosen on the val splits of both protocols,
-    # docs/RESULTS.md "A walk's arms on a clip done in place"); 0: off
+    # docs/archive/RESULTS-notebook.md#where-the-arm-actions-content-went-continued); 0: off
     content_keep: float = 0.5  # apply: 0-1; the style's change is scaled down (3/4, 1/2, 1/4) until the motion encoder
     # still reads the content's action with at least this share of its certainty on the content (transfer.apply.keep_content;
-    # 0.5 chosen on the val splits, docs/RESULTS.md "A content keeper"); 0: off
+    # 0.5 chosen on the val splits, docs/archive/RESULTS-notebook.md#a-content-keeper-at-apply-issue-23-2026-12-05-09001200);
+    # 0: off
     content_keep_top: bool = True  # apply: the content keeper also lets pass a result whose most likely action is still
     # the content's (a styled walk read less surely, but first, as a walk keeps all of the style)
     still_guard: bool = True  # difference mode: where the style model redraws the content nearly without movement (it
     # collapsed onto a still pose), only the slow part of its difference is kept (transfer.edit.keep_slow_when_still)
     guard_swing: bool = True  # apply: the stray-limb guard moves a hand by swinging its arm at the shoulder (the elbow and
     # wrist keep their angles: a wave's elbow is what makes it a wave) instead of two-bone IK (motioncore.limbs.swing_limb;
-    # chosen on the val splits of both protocols, docs/RESULTS.md "The stray-limb guard swings an arm")
+    # chosen on the val splits of both protocols,
+    # docs/archive/RESULTS-notebook.md#the-stray-limb-guard-swings-an-arm-at-the-shoulder-issue-23)
 
 
 # config field -> (type, low, high): numbers outside are refused; in a style file's order (the fields as they were

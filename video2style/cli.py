@@ -834,7 +834,7 @@ def build_parser() -> argparse.ArgumentParser:
     lr.add_argument("--calibrate", action="store_true",
                     help="scale the style so results differ from their content as much as the example differs from "
                          "its neutral version (measured on neutral clips of other actions; more style, the action "
-                         "read less often: docs/RESULTS.md \"A style's amount follows its example\")")
+                         "read less often: docs/results.md#calibrated-amount-opt-in)")
     lr.add_argument("--iterations", type=_style_option("iterations"),
                     help=f"fine-tuning iterations: the budget, the same on any machine (default: {LearnConfig.iterations})")
     lr.add_argument("--max-seconds", type=_style_option("max_seconds"),
@@ -1104,7 +1104,8 @@ def main(argv: list[str] | None = None) -> int:
 def console_main() -> int:
     """The ``video2style`` console script: :func:`main`, then ``gc.freeze()`` so that the interpreter's exit
     skips a last garbage-collection sweep over every object the imports made (torch's are most of them):
-    0.3-0.4 s less at the end of each command on the 2-core box (docs/RESULTS.md, "The first hour").
+    0.3-0.4 s less at the end of each command on the 2-core box
+    (docs/archive/RESULTS-notebook.md#fourth-round-2026-12-02-later-the-interpreters-exit).
     Cleanup still runs (atexit handlers, open files flushed); only objects the process never frees are left
     to the operating system. Tests call :func:`main`, which leaves the collector alone."""
     import gc

@@ -1,12 +1,14 @@
 """The methods `evaluate` compares, by name: Park et al.'s stylizer, the identity baseline, and ours with
 overrides of the style's configs (:func:`transfer.style_config.split_config`; experimental variants cited by
-docs/RESULTS.md; no two of them learn and apply alike). Plain data, so the command line can list them without importing torch."""
+docs/archive/RESULTS-notebook.md; no two of them learn and apply alike). Plain data, so the command line can list them
+without importing torch."""
 
 VARIANTS = {
     "ours": {},
     "ours-calibrated": {"calibrate": True},  # the style's change times its calibrated gain (transfer.amount)
     # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
-    # rows dated before 2026-12-02 14:00 in docs/RESULTS.md ran every variant below on top of these
+    # rows dated before 2026-12-02 14:00 in the notebook ran every variant below on top of these
+    # (docs/archive/RESULTS-notebook.md#styles-the-models-never-saw-issue-23)
     "ours-words": {"lambda_s": 0.1, "lambda_dir": 0.0, "style_scale": 1.0, "decode": "rotations"},
     "ours-no-pp": {"lambda_p": 0.0},
     "ours-no-pair": {"pair_generation": False},
@@ -68,7 +70,8 @@ VARIANTS = {
     "ours-keep05-s1045": {"content_keep_top": False},  # a result read first as the content's action may still be scaled
     "ours-no-keep": {"content_keep": 0.0, "style_scale": 0.95},  # the default before it
     # 2026-12-05 (11:50-14:50): the style's difference low-passed over time (a style model that collapsed onto a
-    # still pose cancels the content's steps: the demo's feet; docs/RESULTS.md "A style model's still pose")
+    # still pose cancels the content's steps: the demo's feet;
+    # docs/archive/RESULTS-notebook.md#a-style-models-still-pose-the-demos-feet-issue-23-item-5-issue-24s-walks-shuffle)
     "ours-s4": {"delta_smoothing": 4.0},
     "ours-s8": {"delta_smoothing": 8.0},
     "ours-no-still": {"still_guard": False},  # the default before the still-pose guard (transfer.edit.keep_slow_when_still)
@@ -83,12 +86,12 @@ VARIANTS = {
     # "ours-swing" before it became the default)
     "ours-guard-ik": {"guard_swing": False},
     # 2026-12-06: the neutral pair of an example longer than the prior's 80-frame window drawn whole (before), not in
-    # windows (transfer.learn._pair; docs/RESULTS.md "The neutral pair in windows")
+    # windows (transfer.learn._pair; docs/archive/RESULTS-notebook.md#the-neutral-pair-in-windows-issue-23)
     "ours-whole-pair": {"pair_windowed": False},
 }
 METHODS = ("identity", "park", "park-raw", *VARIANTS)
 # older names that still work: Park et al.'s rows, and variants that came to equal another when the defaults changed
-# (docs/RESULTS.md names them in its earlier runs)
+# (docs/archive/RESULTS-notebook.md names them in its earlier runs)
 ALIASES = {
     "stgcn": "park",
     "stgcn-raw": "park-raw",

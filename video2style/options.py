@@ -47,7 +47,7 @@ def add_apply_options(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--strength", type=float, default=0.5,
                         help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
-                             "at some cost to the content (docs/RESULTS.md has the trade-off curve)")
+                             "at some cost to the content (docs/results.md#strength-trade-off has the trade-off curve)")
     parser.add_argument("--tempo", default="off",
                         help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
                              "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")

@@ -29,7 +29,8 @@ def prior_samples(captions: list[str], frames: int = 80, seed: int = 0, settings
     """Text-to-motion samples of the shipped prior (run on ``device``, drawn as ``settings`` say), one per caption,
     as canonical motions standing on the floor. ``from_positions``: the rotations fitted to the samples' joint-position channels
     (:func:`motioncore.ik_fit.decode_via_positions`), whose feet the prior places better than its rotation
-    channels do (docs/RESULTS.md, the prior's gait); else decoded from the rotation channels."""
+    channels do (docs/archive/RESULTS-notebook.md#found-while-checking-the-demo-the-priors-walks-shuffle-2026-12-02);
+    else decoded from the rotation channels."""
     from motioncore.ik_fit import decode_via_positions
 
     m = load_models(device)
