@@ -65,14 +65,19 @@ def test_span_reader_refuses_a_wrong_frame_count_and_bad_numbers(tmp_path):
     short.write_text(text.replace("Frames: 20", "Frames: 21"))
     with pytest.raises(BvhError, match="short.bvh: declared 21 frames, found 20"):
         BvhFrames(short)
-    bad = tmp_path / "bad.bvh"
     rows = text.splitlines()
     rows[-3] = rows[-3].replace(rows[-3].split()[4], "abc", 1)
+    rows.insert(-5, "   ")  # a blank line among the frames: the line numbers count it
+    bad = tmp_path / "bad.bvh"
     bad.write_text("\n".join(rows) + "\n")
     frames = BvhFrames(bad)
     assert torch.isfinite(frames[0:10].lrot).all()
-    with pytest.raises(BvhError, match="bad.bvh: frames 11-20"):
-        frames[10:20]
+    with pytest.raises(BvhError, match=f"bad.bvh:{len(rows) - 2}: expected numbers in the frame data$"):
+        frames[10:20]  # the file's line, not the span's frames
+    rows[-3] = " ".join(rows[-4].split()[:-1])  # a frame a number short
+    bad.write_text("\n".join(rows) + "\n")
+    with pytest.raises(BvhError, match=f"bad.bvh:{len(rows) - 2}: expected .* values per frame, got "):
+        BvhFrames(bad)[15:20]
 
 
 def test_span_resampling_equals_the_whole(tmp_path):
