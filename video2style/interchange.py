@@ -168,13 +168,14 @@ def job_limit(job: dict, frames: int | None = None) -> float:
 
 def parse_answer(text: str, op: str | None = None) -> dict:
     """Blender's answer line (after ``V2S-RESULT``) as a dict with ``ok`` and, when ok, the fields ``op`` needs
-    (:data:`REQUIRED`); ValueError (a short reason) for anything else."""
+    (:data:`REQUIRED`); ValueError (a short reason) for anything else, TypeError (as short) for JSON that is not
+    an object with a boolean ``ok``."""
     try:
         out = json.loads(text)
     except (ValueError, RecursionError):
         raise ValueError("an answer that is not JSON") from None
     if not isinstance(out, dict) or not isinstance(out.get("ok"), bool):
-        raise ValueError("an answer without its ok field")
+        raise TypeError("an answer without its ok field")
     if not out["ok"]:
         if not isinstance(out.get("error"), str) or not out["error"].strip():
             raise ValueError("a failure without its error")
@@ -269,7 +270,7 @@ class Blender:
             raise
         try:
             out = parse_answer(line, job.get("op"))
-        except ValueError as e:
+        except (TypeError, ValueError) as e:
             self.kill()  # a Blender that answers nonsense is not asked again
             raise InterchangeError(f"{shown}: Blender gave {e}: {printable(line, SHOWN_CHARS) or 'nothing'}") from None
         if not out.pop("ok"):
