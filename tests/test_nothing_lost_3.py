@@ -440,6 +440,48 @@ def test_a_video_named_styles_keeps_its_results_apart_from_the_style_files(tmp_p
     assert keys[tmp_path / "styles.mp4"] != "styles" and keys[tmp_path / "walk.mp4"] == "walk"
 
 
+ODD_OFFSETS = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0.000000 90.000000 0.000000
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 0.000000 123.456789 3.333333
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 0.000000 10.000000 123.456789
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0333333
+0 90 0 0 0 0 0 0 0
+1 90 0 0 5 0 0 5 0
+"""
+
+
+@pytest.mark.parametrize("units", ["cm", "auto", 0.0254])
+def test_offsets_are_written_back_as_the_file_has_them(tmp_path, units):
+    from motioncore.bvh import read_bvh, write_bvh
+
+    src, out = tmp_path / "in.bvh", tmp_path / "out.bvh"
+    src.write_text(ODD_OFFSETS)
+    motion, layout = read_bvh(src, units=units)
+    write_bvh(out, motion, layout)
+    offsets = [ln.strip() for ln in ODD_OFFSETS.splitlines() if "OFFSET" in ln]
+    assert [ln.strip() for ln in out.read_text().splitlines() if "OFFSET" in ln] == offsets  # not 9.999999
+    moved = type(motion)(type(motion.skeleton)(motion.skeleton.names, motion.skeleton.parents,
+                                               motion.skeleton.offsets * 2,
+                                               {k: v * 2 for k, v in motion.skeleton.end_sites.items()}),
+                         motion.lrot, motion.lpos, motion.fps)
+    write_bvh(out, moved, layout)  # a skeleton changed since: its own offsets
+    written = [[float(x) for x in ln.split()[1:]] for ln in out.read_text().splitlines() if "OFFSET" in ln]
+    assert written[2][1:] == pytest.approx([20.0, 246.913578], abs=1e-4), written
+
+
 # 10a, 12: files built with the real Blender.
 ODD = r'''
 import importlib.util, json, sys
