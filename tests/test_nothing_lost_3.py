@@ -9,6 +9,7 @@ import pytest
 
 from tests.test_data_safety import _fake_apply, _snapshot
 from tests.test_hardening import _clip, _library, fake_pipeline  # noqa: F401 - a fixture, used by fake
+from tests.test_interchange import corpus_bvh, needs_blender, positions, zero_style
 from video2style import batch, interchange
 from video2style.cli import main
 from video2style.paths import LOCK_NAME
@@ -588,8 +589,25 @@ def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch):
     assert "b_walk.fbx" in line and "disk is full" in line and "TMPDIR" in line, line
 
 
+def _in_blender(folder: Path, script: str, **args) -> dict:
+    """Run the Blender-side ``script`` (its JSON argument: ``args`` and blender_io's path) in ``folder``; the JSON
+    of the line it printed after ``RESULT``."""
+    import subprocess
+
+    folder.mkdir(parents=True, exist_ok=True)
+    helper = folder / "helper.py"
+    helper.write_text(script)
+    cmd = [*interchange.blender_command()[:-1], str(helper)]
+    env = None if "--python" not in cmd else interchange.blender_env()
+    proc = subprocess.run([*cmd, "--", json.dumps({"blender_io": str(interchange.SCRIPT), **args})], check=False,
+                          capture_output=True, text=True, timeout=300, env=env)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT")), None)
+    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return json.loads(line[len("RESULT"):])
+
+
 # 14. An armature whose object moves: the motion is part of the clip.
-MOVE = r'''
+MOVE = r"""
 import importlib.util, json, sys
 import bpy
 args = json.loads(sys.argv[sys.argv.index("--") + 1])
@@ -607,40 +625,26 @@ bpy.context.scene.frame_start, bpy.context.scene.frame_end = start, end
 bpy.ops.export_scene.fbx(filepath=args["out"], add_leaf_bones=False, bake_anim_use_nla_strips=False,
                          bake_anim_use_all_actions=False)
 print("RESULT" + json.dumps({"ok": True}))
-'''
+"""
 
 
-def test_an_armature_that_moves_keeps_its_motion(tmp_path):
-    import subprocess
+def _an_armature_that_moves_keeps_its_motion(tmp_path, conv, still):
+    moved = tmp_path / "moved.fbx"
+    _in_blender(tmp_path / "move", MOVE, path=str(still), out=str(moved))
 
-    from tests.test_interchange import _blender_problem, corpus_bvh, positions
+    def travel(clip) -> float:  # metres the hips go along x, first frame to last
+        _, p, _ = positions(conv.to_bvh(clip))
+        return float(p[-1, 0, 0] - p[0, 0, 0])
 
-    if _blender_problem() is not None:
-        pytest.skip(f"no usable Blender: {_blender_problem()}")
-    with interchange.Converter() as conv:
-        still = conv.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
-        helper = tmp_path / "move.py"
-        helper.write_text(MOVE)
-        cmd = [*interchange.blender_command()[:-1], str(helper)]
-        moved = tmp_path / "moved.fbx"
-        args = json.dumps({"path": str(still), "out": str(moved), "blender_io": str(interchange.SCRIPT)})
-        env = None if "--python" not in cmd else interchange.blender_env()
-        proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
-        assert "RESULT" in proc.stdout, proc.stdout[-2000:] + proc.stderr[-2000:]
-
-        def travel(clip) -> float:  # metres the hips go along x, first frame to last
-            names, p, _ = positions(conv.to_bvh(clip))
-            return float(p[-1, 0, 0] - p[0, 0, 0])
-
-        gained = travel(moved) - travel(still)
-        assert abs(gained - 1.5) < 0.02, gained
-        assert "itself moves" in " ".join(conv.info(moved)["notes"])
-        written = conv.write(conv.to_bvh(moved), tmp_path / "out" / "moved.fbx", source=moved)  # written back
-        assert abs(travel(written) - travel(moved)) < 0.01
+    gained = travel(moved) - travel(still)
+    assert abs(gained - 1.5) < 0.02, gained
+    assert "itself moves" in " ".join(conv.info(moved)["notes"])
+    written = conv.write(conv.to_bvh(moved), tmp_path / "out" / "moved.fbx", source=moved)  # written back
+    assert abs(travel(written) - travel(moved)) < 0.01
 
 
 # 15. Keys before frame 0 are read, with a note.
-EARLY = r'''
+EARLY = r"""
 import importlib.util, json, sys
 import bpy
 args = json.loads(sys.argv[sys.argv.index("--") + 1])
@@ -651,28 +655,95 @@ start, end = io._frame_range(act)
 io._shift_keys(act, -11 - start)  # keys from frame -11 (a 240 fps file's, say)
 info = io._read_action({"bvh": args["bvh"]}, args["path"], arm, act, arms, acts, notes)
 print("RESULT" + json.dumps({"info": info, "frames": end - start + 1}))
-'''
+"""
 
 
-def test_keys_before_frame_0_are_read_with_a_note(tmp_path):
-    import subprocess
-
+def _keys_before_frame_0_are_read_with_a_note(tmp_path, conv, fbx):
     from motioncore.bvh import read_bvh
-    from tests.test_interchange import _blender_problem, corpus_bvh
 
-    if _blender_problem() is not None:
-        pytest.skip(f"no usable Blender: {_blender_problem()}")
-    with interchange.Converter() as conv:
-        fbx = conv.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
-    helper = tmp_path / "early.py"
-    helper.write_text(EARLY)
-    cmd = [*interchange.blender_command()[:-1], str(helper)]
     bvh = tmp_path / "early.bvh"
-    args = json.dumps({"path": str(fbx), "bvh": str(bvh), "blender_io": str(interchange.SCRIPT)})
-    env = None if "--python" not in cmd else interchange.blender_env()
-    proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
-    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT")), None)
-    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
-    out = json.loads(line[len("RESULT"):])
+    out = _in_blender(tmp_path / "early", EARLY, path=str(fbx), bvh=str(bvh))
     assert read_bvh(bvh)[0].num_frames == out["frames"]  # none of the frames before 0 left out
     assert out["info"]["frame_start"] == 0 and any("starts at frame -11" in n for n in out["info"]["notes"])
+
+
+@needs_blender
+@pytest.mark.parametrize("check", [_an_armature_that_moves_keeps_its_motion, _keys_before_frame_0_are_read_with_a_note],
+                         ids=["14-the-armature-moves", "15-keys-before-frame-0"])
+def test_a_clip_blender_made_is_read_whole(tmp_path, check):
+    with interchange.Converter() as conv:
+        fbx = conv.write(corpus_bvh(tmp_path / "src", "mixamo"), tmp_path / "src" / "walk.fbx")
+        check(tmp_path, conv, fbx)
+
+
+# 13. --action B: B is styled under its own name, the file's other actions kept as they were.
+TAKES = r"""
+import importlib.util, json, sys
+import bpy
+args = json.loads(sys.argv[sys.argv.index("--") + 1])
+spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
+io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
+io._clear()
+io._import(args["a"])
+arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+first = set(bpy.data.objects)
+io._import(args["b"])
+walk_b = next(o for o in bpy.data.objects if o not in first and o.type == "ARMATURE").animation_data.action
+for o in [o for o in bpy.data.objects if o not in first]:
+    bpy.data.objects.remove(o)
+walk_a = arm.animation_data.action
+walk_a.name, walk_b.name = "WalkA", "WalkB"
+for a in [a for a in bpy.data.actions if a not in (walk_a, walk_b)]:
+    bpy.data.actions.remove(a)
+arm.animation_data.action = None
+for act in (walk_a, walk_b):  # a take (an animation) each, named after its strip (track)
+    track = arm.animation_data.nla_tracks.new()
+    track.name = act.name
+    track.strips.new(act.name, int(act.frame_range[0]), act).name = act.name
+bpy.ops.export_scene.fbx(filepath=args["out"] + "/takes.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=True,
+                         bake_anim_use_all_actions=False)
+bpy.ops.export_scene.gltf(filepath=args["out"] + "/takes.glb", export_format="GLB", export_animations=True,
+                          export_nla_strips=True)
+print("RESULT" + json.dumps({"ok": True}))
+"""
+
+
+@needs_blender
+def test_the_chosen_action_is_styled_under_its_name_and_the_others_kept(tmp_path, capsys):
+    from motioncore.bvh import write_bvh
+    from motioncore.retarget import from_canonical, make_rig
+    from tests.helpers import random_motion
+    from tests.rig_corpus import case
+
+    rig = case("mixamo")
+    for name, seed in (("a", 4), ("b", 7)):
+        motion = from_canonical(random_motion(seconds=2.0, fps=30.0, seed=seed, amplitude=0.3), make_rig(rig.skeleton))
+        write_bvh(tmp_path / f"{name}.bvh", motion, rig.layout)
+    with interchange.Converter() as conv:
+        made = {n: conv.write(tmp_path / f"{n}.bvh", tmp_path / f"{n}.fbx") for n in "ab"}
+    _in_blender(tmp_path / "make", TAKES, a=str(made["a"]), b=str(made["b"]), out=str(tmp_path))
+    style = zero_style(tmp_path, scale=0.5)  # a style that changes the motion
+    for clip in (tmp_path / "takes.fbx", tmp_path / "takes.glb"):
+        out = tmp_path / "out" / clip.suffix[1:]
+        assert main(["apply", str(style), str(clip), "-o", str(out), "--no-preview", "--action", "WalkB"]) == 0, \
+            capsys.readouterr().err
+        assert main(["apply", str(style), str(clip), "-o", str(out / "bvh"), "--no-preview", "--action", "WalkB",
+                     "--format", "bvh"]) == 0
+        capsys.readouterr()
+        result = out / clip.name
+
+        def read(path, take):  # joint positions (metres) of one take
+            with interchange.Converter(action=take) as conv:
+                return positions(conv.to_bvh(path))[1], conv.info(path)
+
+        a_in, info_in = read(clip, "WalkA")
+        a_out, info = read(result, "WalkA")
+        b_in, _ = read(clip, "WalkB")
+        b_out, _ = read(result, "WalkB")
+        styled = positions(out / "bvh" / clip.with_suffix(".bvh").name)[1]
+        assert info["actions"] == info_in["actions"], (info["actions"], info_in["actions"])  # both, names kept
+        assert a_out.shape == a_in.shape and float((a_out - a_in).abs().max()) < 1e-3  # WalkA as it was
+        assert b_out.shape == b_in.shape and float((b_out - b_in).norm(dim=-1).mean()) > 0.01  # WalkB styled ...
+        assert float((b_out - styled).abs().max()) < 2e-3  # ... as the BVH result is, frame for frame
+        if clip.suffix == ".glb":  # the animations keep their names and order
+            assert [a["name"] for a in interchange.gltf_json(result)["animations"]] == ["WalkA", "WalkB"]

@@ -569,7 +569,7 @@ class Converter:
                 self.to_bvh(source)
             read = self.info(source)
             job.update(source=str(Path(source).resolve()), armature=read["armature"], action=read["action"],
-                       blend=read["blend"])
+                       actions=read.get("actions"), blend=read["blend"])  # the other actions are kept
             arrays["frame_start"] = np.array(read["frame_start"])
         else:
             job.update(source=None, up=_up_axis(bvh))
