@@ -197,6 +197,9 @@ for line in sys.stdin:
         sys.stdout.write('V2S-RESULT {"ok": false, "error": "No space left on device ... truncated')
         sys.stdout.flush()
         time.sleep(300)
+    elif mode == "enospc":  # an add-on's traceback, as Blender's operators wrap it
+        answer({"ok": False, "error": "Blender: RuntimeError: Error: Python: Traceback (most recent call last):\n"
+                "  File \"export_bvh.py\", line 254, in write_armature\nOSError: [Errno 28] No space left on device"})
     elif mode == "nowrite" and job["op"] == "read":
         answer({"ok": True, "armature": "Armature", "action": "Walk", "fps": 30.0, "frame_start": 1, "frame_end": 30})
     elif job["op"] == "read":
@@ -576,17 +579,42 @@ def test_a_rotate_that_turns_an_upright_video_is_refused(tmp_path, monkeypatch, 
     assert str(video) in line and f"--rotate {rotate} leaves the person" in line and said in line, line
 
 
-def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch):
+@pytest.mark.parametrize("mode", ["nowrite", "enospc", "savez"])
+def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch, tmp_path, mode):
     import collections
     import shutil
+    import tempfile
 
-    monkeypatch.setenv("FAKE_BLENDER", "nowrite")
+    import numpy as np
+
+    monkeypatch.setenv("FAKE_BLENDER", mode)
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(1 << 30, 1 << 30, 4096))
     with interchange.Converter() as conv, pytest.raises(interchange.InterchangeError) as e:
-        conv.to_bvh(fake_blender / "b_walk.fbx")
+        if mode == "savez":  # a BVH written as FBX: its motion handed to Blender through the full folder
+            monkeypatch.setattr(np, "savez", lambda *a, **k: (_ for _ in ()).throw(OSError(28, "No space left on device")))
+            conv.write(_clip(tmp_path / "walk.bvh"), tmp_path / "out" / "walk.fbx")
+        else:
+            conv.to_bvh(fake_blender / "b_walk.fbx")
     line = str(e.value)
-    assert "b_walk.fbx" in line and "disk is full" in line and "TMPDIR" in line, line
+    assert ("walk.fbx" in line and "disk is full" in line and "TMPDIR" in line and "Traceback" not in line
+            and f"in {tempfile.gettempdir()}:" in line), line
+
+
+def test_an_add_ons_traceback_is_told_by_its_last_error(monkeypatch):
+    import importlib.util
+    import types
+
+    for name in ("bpy", "mathutils"):  # blender_io outside Blender: only its text helpers are used
+        monkeypatch.setitem(sys.modules, name, types.SimpleNamespace(Euler=None, Quaternion=None, Vector=None))
+    spec = importlib.util.spec_from_file_location("blender_io_outside", interchange.SCRIPT)
+    io = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(io)
+    wrapped = RuntimeError("Error: Python: Traceback (most recent call last):\n  File \"export_bvh.py\", line 254, in "
+                           "write_armature\n    file.write(x)\nOSError: [Errno 28] No space left on device\n\n"
+                           "Location: /usr/share/blender/scripts/modules/bpy/ops.py:113")
+    assert io._what_failed(wrapped) == "OSError: [Errno 28] No space left on device"
+    assert io._what_failed(KeyError("fps")) == "KeyError: 'fps'"
 
 
 def _in_blender(folder: Path, script: str, **args) -> dict:

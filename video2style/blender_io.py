@@ -488,6 +488,19 @@ def job_write(job):
     return {"armature": arm.name, "action": action.name, "frame_start": start, "frame_end": end, "fps": _scene_fps()}
 
 
+def _what_failed(e):
+    """``Type: message`` of an exception; for an operator's RuntimeError that carries an add-on's whole traceback
+    ("Error: Python: Traceback ... OSError: [Errno 28] No space left on device"), the traceback's last line."""
+    import re
+
+    text = str(e)
+    if "Traceback (most recent call last)" in text:
+        raised = [ln.strip() for ln in text.splitlines() if re.match(r"\s*[A-Za-z_][\w.]*(Error|Exception)\b.*:", ln)]
+        if raised:
+            return raised[-1]
+    return f"{type(e).__name__}: {text}"
+
+
 def main():
     sys.stdout.write("V2S-READY\n")  # the caller's start-up limit ends here
     sys.stdout.flush()
@@ -501,7 +514,7 @@ def main():
             result = {"ok": False, "error": str(e)}
         except Exception as e:  # noqa: BLE001 - one line back to the caller, the job's file named there
             tb = traceback.format_exc().strip().splitlines()
-            result = {"ok": False, "error": f"Blender: {type(e).__name__}: {e}".strip(), "trace": tb[-6:]}
+            result = {"ok": False, "error": f"Blender: {_what_failed(e)}".strip(), "trace": tb[-6:]}
         sys.stdout.write("V2S-RESULT " + json.dumps(result) + "\n")
         sys.stdout.flush()
 

@@ -436,7 +436,8 @@ def _why_not_written(folder: Path) -> str:
     except OSError:
         return ""
     if free < 16 << 20:
-        return (f" in {folder.parent}: its disk is full ({free / 1e6:.1f} MB free); free some space or set TMPDIR "
+        root = next((p.parent for p in (folder, *folder.parents) if p.name.startswith(TEMP_PREFIX)), folder.parent)
+        return (f" in {root}: its disk is full ({free / 1e6:.1f} MB free); free some space or set TMPDIR "
                 "to a folder on another disk")
     return ""
 
@@ -528,6 +529,12 @@ class Converter:
                 raise InterchangeError(f"{path}: Blender wrote no motion for it{_why_not_written(where)}")
             info["blend"] = str(where / "scene.blend")
             _exact_frame_time(bvh, info["fps"])
+        except (InterchangeError, OSError) as e:
+            full = _why_not_written(where)  # the temporary folder's disk filled up: say so, not what failed on it
+            shutil.rmtree(where, ignore_errors=True)
+            if full and "Blender wrote no motion" not in str(e):
+                raise InterchangeError(f"{path}: its motion could not be written{full}") from None
+            raise
         except BaseException:
             shutil.rmtree(where, ignore_errors=True)
             raise
@@ -575,7 +582,12 @@ class Converter:
             job.update(source=None, up=_up_axis(bvh))
             arrays["frame_start"] = np.array(1)
         npz = self._folder() / f"motion{len(list(self._folder().glob('motion*.npz')))}.npz"
-        np.savez(npz, **arrays)
+        try:
+            np.savez(npz, **arrays)
+        except OSError as e:
+            npz.unlink(missing_ok=True)
+            raise InterchangeError(f"{out}: the motion could not be handed to Blender"
+                                   f"{_why_not_written(npz.parent) or f' ({printable(e.strerror or e)})'}") from None
         job["motion"] = str(npz)
         try:
             with atomic_output(out) as tmp:
