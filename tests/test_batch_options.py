@@ -72,7 +72,7 @@ def test_batch_reuses_style_files_and_takes_mixed_sources(tmp_path, fake_pipelin
 
 
 def test_a_style_file_that_does_not_load_is_one_failed_item(tmp_path, fake_pipeline):  # noqa: F811
-    videos, content = _library(tmp_path)
+    _, content = _library(tmp_path)
     bad = tmp_path / "bad.v2s"
     bad.write_bytes(b"\x00garbage")
     assert main(["batch", str(bad), "--content", str(content), "-o", str(tmp_path / "out")]) == 1

@@ -140,8 +140,8 @@ def test_a_style_file_that_is_a_fifo_is_refused_before_open(tmp_path, capsys):
     clip = _clip(tmp_path / "in" / "walk.bvh")
     for style in (fifo, tmp_path / "link.v2s"):
         codes = []
-        worker = threading.Thread(target=lambda s=style: codes.append(main(["apply", str(s), str(clip), "-o",
-                                                                            str(tmp_path / "out")])), daemon=True)
+        worker = threading.Thread(target=lambda s=style, codes=codes: codes.append(
+            main(["apply", str(s), str(clip), "-o", str(tmp_path / "out")])), daemon=True)
         worker.start()
         worker.join(60)
         if worker.is_alive():  # hung in open(): give it a writer so that the thread ends, then fail
