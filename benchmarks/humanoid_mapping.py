@@ -25,9 +25,9 @@ from motioncore.kinematics import fk
 from motioncore.motion import Motion
 from motioncore.retarget import RetargetError, from_canonical, make_rig, to_canonical
 from motioncore.skeleton import CANONICAL, Skeleton
-from tests.helpers import random_motion
-from tests.rig_corpus import CASES, DISPUTED_CASES
-from tests.rig_poses import POSES, posed_motion
+from testkit.motions import random_motion
+from testkit.rig_corpus import CASES, DISPUTED_CASES
+from testkit.rig_poses import POSES, posed_motion
 
 
 def corpus() -> None:

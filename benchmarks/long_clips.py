@@ -21,8 +21,8 @@ from motioncore import quat
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.motion import Motion
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import cmu_like_skeleton
-from tests.rig_corpus import case
+from testkit.motions import cmu_like_skeleton
+from testkit.rig_corpus import case
 
 
 def long_walk(frames: int, fps: float = 30.0) -> Motion:

@@ -75,7 +75,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_temp_file(tmp_path, capsys, monke
 
     from motioncore.bvh import BvhLayout, write_bvh
     from motioncore.skeleton import CANONICAL
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     clip = tmp_path / "c.bvh"
     write_bvh(clip, random_motion(seconds=1.0), BvhLayout.default(CANONICAL.skeleton, scale=0.01))

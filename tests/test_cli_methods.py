@@ -9,7 +9,7 @@ import torch
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
 from park.networks import ParkConfig, ParkModel
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 from transfer.checkpoints import save_model
 from video2style.cli import main
 
@@ -111,15 +111,15 @@ def test_pose_of_a_non_video_names_the_file(tmp_path, capsys):
 
 
 def test_evaluate_identity_and_park_on_a_tiny_cache(tmp_path, park_weights, monkeypatch):
+    from tests.helpers import random_classifier
     from tests.synthetic_cache import write_synthetic_cache
-    from tests.test_evaluation import _random_classifier
     from transfer.captions import BANDAI2_CONTENTS, STYLES
     from video2style import park_apply
     from video2style.evaluate import evaluate
 
     cache = write_synthetic_cache(tmp_path / "cache")
-    weights = {"content": _random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
-               "style": _random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
+    weights = {"content": random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
+               "style": random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
     monkeypatch.setattr("evaluation.protocol.default_weights", lambda target: weights[target])
     park_apply.park_model.cache_clear()
     monkeypatch.setattr(park_apply, "weights_path", lambda name: park_weights)

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from tests.test_style import tiny_denoiser
+from tests.helpers import tiny_denoiser
 from transfer.bundle import MethodBundle
 from transfer.captions import BANDAI2_CONTENTS
 from transfer.content_bank import DATA_FRAMES, ContentBank, make_content_bank

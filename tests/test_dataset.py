@@ -9,7 +9,7 @@ from safetensors.torch import load_file
 from motioncore.bvh import BvhLayout, format_bvh
 from motioncore.representation import FEATURES
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
+from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
 from transfer.captions import caption
 from transfer.dataset import MotionDataset, build_dataset
 

@@ -4,7 +4,8 @@ import json
 import subprocess
 from pathlib import Path
 
-from tests.test_interchange import corpus_bvh, needs_blender, zero_style
+from testkit.clips import corpus_bvh, zero_style
+from tests.helpers import needs_blender
 from video2style import interchange
 from video2style.cli import main
 from video2style.interchange import Converter, blender_command

@@ -8,9 +8,9 @@ from motioncore.humanoid import NotHumanoidError, find_humanoid, up_axis
 from motioncore.kinematics import fk
 from motioncore.retarget import RetargetError, make_rig, up_basis
 from motioncore.skeleton import Skeleton
-from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton
-from tests.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, case, rest_motion
-from tests.rig_poses import POSES, posed_motion
+from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton
+from testkit.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, case, rest_motion
+from testkit.rig_poses import POSES, posed_motion
 
 ALL = CASES + DISPUTED_CASES
 UP = {"Y": "+Y", "Z": "+Z"}

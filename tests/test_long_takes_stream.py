@@ -13,7 +13,7 @@ import transfer.apply as apply_mod
 from motioncore.bvh import BvhError, read_bvh, write_bvh
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.motion import Motion, resample, resample_span
-from tests.helpers import cmu_like_skeleton
+from testkit.motions import cmu_like_skeleton
 from transfer.shipped import SHIPPED as WEIGHTS
 from video2style import long_takes
 

@@ -7,16 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_data_safety import _fake_apply, _snapshot
-from tests.test_hardening import _clip, _library, fake_pipeline  # noqa: F401 - a fixture, used by fake
-from tests.test_interchange import corpus_bvh, needs_blender, positions, zero_style
+from testkit.clips import corpus_bvh, positions, zero_style
+from tests.helpers import fake_apply, make_library, needs_blender, snapshot_tree, write_clip
 from video2style import batch, interchange
 from video2style.cli import main
 from video2style.paths import LOCK_NAME
 
 
 @pytest.fixture
-def fake(fake_pipeline):  # noqa: F811 - test_hardening's fake learn/apply (calls recorded)
+def fake(fake_pipeline):
     return fake_pipeline
 
 
@@ -34,10 +33,10 @@ def _one_error(capsys) -> str:
     ["src/walk.bvh", "-o", "lib/sub2", "--format", "glb"],
 ])
 def test_a_users_fbx_or_glb_where_a_result_would_go_is_refused(tmp_path, monkeypatch, capsys, argv):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     monkeypatch.chdir(tmp_path)
     lib = tmp_path / "lib"
-    _clip(tmp_path / "src" / "walk.bvh")
+    write_clip(tmp_path / "src" / "walk.bvh")
     lib.mkdir()
     (lib / "walk.fbx").write_bytes(b"Kaydara FBX Binary  \x00the input")
     (lib / "sub").mkdir()
@@ -45,27 +44,27 @@ def test_a_users_fbx_or_glb_where_a_result_would_go_is_refused(tmp_path, monkeyp
     (lib / "sub2").mkdir()
     (lib / "sub2" / "walk.glb").write_bytes(b"the user's own clip")
     (tmp_path / "s.v2s").write_text("s")
-    before = _snapshot(tmp_path)
+    before = snapshot_tree(tmp_path)
     assert main(["apply", "s.v2s", *argv]) == 1
     err = _one_error(capsys)
     assert "would overwrite" in err and ("sub/walk.fbx" in err or "sub2/walk.glb" in err), err
-    assert _snapshot(tmp_path) == before
+    assert snapshot_tree(tmp_path) == before
 
 
 def test_a_batch_over_a_users_fbx_in_a_result_folder_is_refused(tmp_path, fake):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     (content / "walk.fbx").write_bytes(b"Kaydara FBX Binary  \x00")
     (content / "res" / "strut").mkdir(parents=True)
     (content / "res" / "strut" / "walk.fbx").write_bytes(b"the user's own clip")
-    before = _snapshot(tmp_path)
+    before = snapshot_tree(tmp_path)
     with pytest.raises(ValueError, match="res/strut/walk.fbx.*is a clip in the --content folder"):
         batch.run_batch(videos, content, content / "res", progress=lambda s: None)
-    assert _snapshot(tmp_path) == before and fake["learn"] == []
+    assert snapshot_tree(tmp_path) == before and fake["learn"] == []
 
 
 def test_results_of_an_earlier_run_are_still_replaced(tmp_path, monkeypatch):
-    _fake_apply(monkeypatch)
-    clip = _clip(tmp_path / "in" / "walk.bvh")
+    fake_apply(monkeypatch)
+    clip = write_clip(tmp_path / "in" / "walk.bvh")
     (tmp_path / "s.v2s").write_text("s")
     for _ in range(2):  # the folder holds our lock after the first run: its walk.bvh is ours
         assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(tmp_path / "out")]) == 0
@@ -73,10 +72,10 @@ def test_results_of_an_earlier_run_are_still_replaced(tmp_path, monkeypatch):
 
 # 2. A lock file that is a hard link is refused and its target never written.
 def test_a_hard_link_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp_path, monkeypatch, fake, capsys):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     victim = tmp_path / "victim.txt"
     victim.write_text("the user's file")
-    clip = _clip(tmp_path / "in" / "walk.bvh")
+    clip = write_clip(tmp_path / "in" / "walk.bvh")
     (tmp_path / "s.v2s").write_text("s")
     out = tmp_path / "out"
     out.mkdir()
@@ -84,7 +83,7 @@ def test_a_hard_link_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp
     assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(out)]) == 1
     err = _one_error(capsys)
     assert "hard links" in err and LOCK_NAME in err and victim.read_text() == "the user's file"
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     assert main(["batch", str(videos), "--content", str(content), "-o", str(out)]) == 1
     assert "hard links" in _one_error(capsys) and victim.read_text() == "the user's file" and fake["learn"] == []
     assert not (out / "walk.bvh").exists()
@@ -137,7 +136,7 @@ def test_a_style_file_that_is_a_fifo_is_refused_before_open(tmp_path, capsys):
     fifo = tmp_path / "s.v2s"
     os.mkfifo(fifo)
     (tmp_path / "link.v2s").symlink_to(fifo)
-    clip = _clip(tmp_path / "in" / "walk.bvh")
+    clip = write_clip(tmp_path / "in" / "walk.bvh")
     for style in (fifo, tmp_path / "link.v2s"):
         codes = []
         worker = threading.Thread(target=lambda s=style, codes=codes: codes.append(
@@ -223,7 +222,7 @@ def fake_blender(tmp_path, monkeypatch):
     exe.write_text(FAKE.replace("{python}", sys.executable))
     exe.chmod(0o755)
     monkeypatch.setattr(interchange, "blender_command", lambda: [str(exe)])
-    monkeypatch.setenv("FAKE_BVH", str(_clip(tmp_path / "template.bvh")))
+    monkeypatch.setenv("FAKE_BVH", str(write_clip(tmp_path / "template.bvh")))
     clips = tmp_path / "clips"
     clips.mkdir()
     for name in ("a_bad.fbx", "b_walk.fbx", "c_run.glb"):
@@ -270,7 +269,7 @@ def test_text_from_blender_or_a_style_file_is_printed_without_control_characters
     style = tmp_path / "evil.v2s"
     meta = {"video2style": json.dumps({"style": "x"})}
     save_file({"\x1b[2J\x1b[31mEVIL.lora_a": torch.zeros(3, 5)}, str(style), metadata=meta)
-    assert main(["apply", str(style), str(_clip(tmp_path / "in" / "walk.bvh")), "-o", str(tmp_path / "out")]) == 1
+    assert main(["apply", str(style), str(write_clip(tmp_path / "in" / "walk.bvh")), "-o", str(tmp_path / "out")]) == 1
     err = _one_error(capsys)
     assert "\x1b" not in err and str(style) in err, err
 
@@ -326,7 +325,7 @@ def test_a_span_of_1e308_seconds_is_one_line(tmp_path, capsys, flag):
     from motioncore.bvh import read_bvh
     from motioncore.motion import trim
 
-    clip = _clip(tmp_path / "walk.bvh")
+    clip = write_clip(tmp_path / "walk.bvh")
     motion, _ = read_bvh(clip)
     if flag == "--end":
         assert trim(motion, (0.5, 1e308), "walk").num_frames == motion.num_frames - int(0.5 * motion.fps)
@@ -371,8 +370,8 @@ def test_a_batch_report_holds_only_printable_text(fake_blender, tmp_path, monkey
 def test_apply_sweeps_what_an_interrupted_run_left_in_its_folders(tmp_path, monkeypatch, capsys):
     from motioncore.files import temp_beside
 
-    _fake_apply(monkeypatch)
-    clip = _clip(tmp_path / "in" / "walk.bvh")
+    fake_apply(monkeypatch)
+    clip = write_clip(tmp_path / "in" / "walk.bvh")
     (tmp_path / "s.v2s").write_text("s")
     out = tmp_path / "out"
     out.mkdir()
@@ -422,13 +421,13 @@ def test_a_long_legal_clip_name_gets_a_temporary_name_that_fits(tmp_path, capsys
     assert len(tmp.name) <= 255 and is_temp_name(tmp.name)
     atomic_write_text(tmp_path / ("é" * 120 + ".txt"), "x")  # 244 bytes of UTF-8
     too_long = "s" * 300 + ".v2s"
-    assert main(["learn", str(_clip(tmp_path / "walk.bvh")), "-o", str(tmp_path / too_long)]) == 1
+    assert main(["learn", str(write_clip(tmp_path / "walk.bvh")), "-o", str(tmp_path / too_long)]) == 1
     err = _one_error(capsys)
     assert "304 bytes long" in err and "[1/4]" not in capsys.readouterr().out  # refused before learning
 
 
 def test_clips_of_one_name_in_one_folder_are_refused_for_the_right_reason(tmp_path, monkeypatch, capsys):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     lib = tmp_path / "lib"
     lib.mkdir()
     for name in ("walk.fbx", "walk.glb"):
@@ -521,10 +520,10 @@ print("RESULT" + json.dumps({"ok": True}))
 def odd_files(tmp_path_factory):
     import subprocess
 
-    from tests.test_interchange import _blender_problem, corpus_bvh
+    from tests.helpers import blender_problem
 
-    if _blender_problem() is not None:
-        pytest.skip(f"no usable Blender: {_blender_problem()}")
+    if blender_problem() is not None:
+        pytest.skip(f"no usable Blender: {blender_problem()}")
     folder = tmp_path_factory.mktemp("odd")
     with interchange.Converter() as conv:
         fbx = conv.write(corpus_bvh(folder / "src", "mixamo"), folder / "src" / "walk.fbx")
@@ -563,7 +562,7 @@ def test_an_action_of_days_is_refused_before_its_export(odd_files, capsys):
                                                             (180, 270, "run again with --rotate 270")])
 def test_a_rotate_that_turns_an_upright_video_is_refused(tmp_path, monkeypatch, rotate, seen_turn, said):
     from lifting import lift
-    from tests.lifting.test_video_rotation import (
+    from tests.lifting.helpers import (
         fake_track,
         standing_landmarks,
         turned_pixels,
@@ -593,7 +592,7 @@ def test_a_full_temporary_folder_is_called_full(fake_blender, monkeypatch, tmp_p
     with interchange.Converter() as conv, pytest.raises(interchange.InterchangeError) as e:
         if mode == "savez":  # a BVH written as FBX: its motion handed to Blender through the full folder
             monkeypatch.setattr(np, "savez", lambda *a, **k: (_ for _ in ()).throw(OSError(28, "No space left on device")))
-            conv.write(_clip(tmp_path / "walk.bvh"), tmp_path / "out" / "walk.fbx")
+            conv.write(write_clip(tmp_path / "walk.bvh"), tmp_path / "out" / "walk.fbx")
         else:
             conv.to_bvh(fake_blender / "b_walk.fbx")
     line = str(e.value)
@@ -740,8 +739,8 @@ print("RESULT" + json.dumps({"ok": True}))
 def test_the_chosen_action_is_styled_under_its_name_and_the_others_kept(tmp_path, capsys):
     from motioncore.bvh import write_bvh
     from motioncore.retarget import from_canonical, make_rig
-    from tests.helpers import random_motion
-    from tests.rig_corpus import case
+    from testkit.motions import random_motion
+    from testkit.rig_corpus import case
 
     rig = case("mixamo")
     for name, seed in (("a", 4), ("b", 7)):

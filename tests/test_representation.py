@@ -11,7 +11,7 @@ from motioncore.representation import (
     foot_contacts,
 )
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 
 def _start(m):
@@ -76,7 +76,7 @@ def test_resample_keeps_duration_and_endpoints():
 
 def test_encode_and_decode_a_chunk_at_a_time_give_the_same_numbers(monkeypatch):
     import motioncore.representation as rep
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     m = random_motion(seconds=6.0, seed=3)
     f, d = rep.encode(m), rep.decode(rep.encode(m))

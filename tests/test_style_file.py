@@ -8,7 +8,7 @@ import torch
 from safetensors.torch import save_file
 
 from motioncore.representation import FEATURES
-from tests.test_style import _trained_style, tiny_denoiser
+from tests.helpers import tiny_denoiser, trained_style
 from transfer.style_file import Style, style_model
 
 
@@ -20,7 +20,7 @@ def _write(path, meta, tensors):
 
 @pytest.fixture()
 def good():
-    style = _trained_style(tiny_denoiser())
+    style = trained_style(tiny_denoiser())
     meta = {"style": "old", "content": "a person walks", "rank": 8, "iterations": 40,
             "config": {"rank": 8, "transfer_noise_step": 300, "max_seconds": None, "apply_mode": "difference"}}
     tensors = {k: v.half() for k, v in style.adapters.items()}

@@ -16,29 +16,14 @@ import pytest
 import torch
 
 from lifting.render_humanoid import frame_camera, write_humanoid_video
-from motioncore import quat
 from motioncore.bvh import read_bvh
-from motioncore.ik_fit import default_reference
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from motioncore.skeleton import CANONICAL
-from tests.lifting.synthetic_blazepose import humanoid_frame
+from testkit.synthetic_blazepose import humanoid_frame
+from tests.lifting.helpers import H, W, waving_motion
 
 SK = CANONICAL.skeleton
-W, H = 640, 360
-
-
-def waving_motion(seconds: float = 1.6, fps: float = 30.0) -> Motion:
-    """The reference (mean) pose standing at the origin facing +Z, waving the right arm and
-    bending the knees a little."""
-    n = round(seconds * fps)
-    t = torch.arange(n) / fps
-    lrot = default_reference().expand(n, -1, -1).clone()
-    wave = quat.from_axis_angle(torch.tensor([0.0, 0.0, 1.0]).expand(n, 3), -1.4 + 0.5 * torch.sin(2 * math.pi * 1.2 * t))
-    lrot[:, SK.index("UpperArm_R")] = quat.mul(lrot[:, SK.index("UpperArm_R")], wave)
-    lpos = SK.offsets.expand(n, -1, -1).clone()
-    lpos[:, 0, 1] = 0.93
-    return Motion(SK, lrot, lpos, fps)
 
 
 def write_clip(path, frames) -> None:
@@ -141,7 +126,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert motion.skeleton is SK and motion.fps == pytest.approx(30.0) and motion.num_frames == truth.num_frames
     pred = motion.global_positions().double().numpy()
     gt = truth.global_positions().double().numpy()
-    from tests.lifting.accuracy import compare
+    from testkit.accuracy import compare
 
     m = compare(pred, gt, 30.0)
     assert m["pa_mpjpe_mm"] < 90.0, m

@@ -14,7 +14,7 @@ import pytest
 
 from lifting.render_humanoid import frame_camera, render_frames
 from motioncore.mp4 import write_mp4
-from tests.lifting.test_pipeline import H, W, waving_motion
+from tests.lifting.helpers import H, W, waving_motion
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from Linux's /proc")
 
