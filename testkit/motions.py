@@ -1,4 +1,4 @@
-"""Synthetic motions for tests: smooth, seeded, on the canonical skeleton."""
+"""Synthetic motions for tests and benchmarks: smooth, seeded, on the canonical skeleton."""
 from __future__ import annotations
 
 import math

@@ -1,4 +1,4 @@
-"""The rigs of tests/rig_corpus.py animated in poses that do not show a standing figure.
+"""The rigs of testkit/rig_corpus.py animated in poses that do not show a standing figure.
 
 :func:`posed_motion` gives a clip of one :class:`~testkit.rig_corpus.RigCase` holding one of
 :data:`POSES` for the whole clip (with a slow turn and a little sway, so no two frames are the

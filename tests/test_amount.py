@@ -83,6 +83,7 @@ def test_a_style_files_amount_is_read_and_checked():
             validate_meta({"amount": bad})
 
 
+@pytest.mark.slow
 def test_learning_records_the_calibrated_amount(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")

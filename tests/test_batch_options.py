@@ -110,6 +110,7 @@ def _lines(text: str, start: str) -> list[str]:
     return [ln.strip() for ln in text.splitlines() if ln.strip().startswith(start)]
 
 
+@pytest.mark.slow
 def test_apply_says_in_one_short_plain_line_per_clip_what_happened_and_writes_the_page(quick_style, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["apply", str(quick_style), str(SAMPLES / "run_prior.bvh"), "-o", str(out)]) == 0
@@ -126,6 +127,7 @@ def test_apply_says_in_one_short_plain_line_per_clip_what_happened_and_writes_th
     assert "run_prior_player.js" in index and 'class="player"' in index and "index.html" in printed
 
 
+@pytest.mark.slow
 def test_batch_prints_a_line_per_clip_and_its_report_holds_the_numbers(quick_style, tmp_path, capsys):
     content = tmp_path / "content"
     content.mkdir()
@@ -150,6 +152,7 @@ def test_the_line_names_the_guards_that_held_the_style_back():
                     "guard left out 9% of the fast change; arms kept their own motion (3% of the style's)")
 
 
+@pytest.mark.slow
 def test_learn_says_each_number_in_the_files_own_frames_and_seconds_and_a_guess_as_a_guess(tmp_path, monkeypatch,
                                                                                           capsys):
     from transfer.apply import Reading

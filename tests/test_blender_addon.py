@@ -43,6 +43,7 @@ print("RESULT" + json.dumps({"result": list(result), "original": original.name, 
 '''
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(BLENDER is None, reason="no Blender here (Debian: apt install blender)")
 def test_the_addon_keys_a_styled_copy_of_the_action(tmp_path):
     from motioncore.bvh import write_bvh

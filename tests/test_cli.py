@@ -18,6 +18,7 @@ def test_help_lists_commands_with_examples():
     assert "examples:" in r.stdout
 
 
+@pytest.mark.slow
 def test_preview_of_a_malformed_bvh_is_one_line_naming_file_and_line(tmp_path):
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 zero 0\n")

@@ -15,7 +15,7 @@ from video2style.paths import LOCK_NAME, check_outputs, same_path
 
 
 @pytest.fixture
-def fake(fake_pipeline):
+def fake(fake_pipeline):  # conftest.py's fake learn/apply (calls recorded)
     return fake_pipeline
 
 

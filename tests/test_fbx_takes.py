@@ -4,6 +4,8 @@ import json
 import subprocess
 from pathlib import Path
 
+import pytest
+
 from testkit.clips import corpus_bvh, zero_style
 from tests.helpers import needs_blender
 from video2style import interchange
@@ -35,6 +37,7 @@ def _resave(src: Path, out: Path) -> Path:
     return out
 
 
+@pytest.mark.slow
 @needs_blender
 def test_an_fbx_result_keeps_its_take_name_and_about_its_size(tmp_path):
     with Converter() as conv:

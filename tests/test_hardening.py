@@ -145,6 +145,7 @@ def test_nan_never_reaches_a_file(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_sigterm_cleans_up_like_ctrl_c(tmp_path):
     clip = write_clip(tmp_path / "long.bvh", seconds=100.0)
     out = tmp_path / "o" / "long.mp4"
@@ -165,6 +166,7 @@ _JSON = st.recursive(st.none() | st.booleans() | st.integers(-10**9, 10**9) | st
                      max_leaves=12)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(meta=st.dictionaries(st.sampled_from(["style", "content", "config", "iterations", "tempo", "rank",
                                               "base_model_sha256", "span", "loss_rec"]), _JSON, max_size=5),
@@ -191,6 +193,7 @@ def test_fuzzed_style_files_are_refused_in_one_line_or_loaded(tmp_path_factory, 
     assert os.path.exists(path)
 
 
+@pytest.mark.slow
 def test_a_frame_time_that_stretches_a_small_file_over_days_is_refused_before_resampling(tmp_path):
     from video2style.pipeline import read_clip
 

@@ -1,4 +1,4 @@
-"""Automatic humanoid mapping on rigs in many tools' conventions (tests/rig_corpus.py) and on the real files."""
+"""Automatic humanoid mapping on rigs in many tools' conventions (testkit/rig_corpus.py) and on the real files."""
 from pathlib import Path
 
 import pytest

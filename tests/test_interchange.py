@@ -40,6 +40,7 @@ def converter():
         yield conv
 
 
+@pytest.mark.slow
 @needs_blender
 @pytest.mark.parametrize("fmt", ["fbx", "glb"])
 @pytest.mark.parametrize("rig", ["mixamo", "ue5", "rigify"])
@@ -62,6 +63,7 @@ def test_bvh_to_file_to_bvh_within_a_millimetre(tmp_path, converter, rig, fmt):
                    for x, y in zip(ra, rb)) < 1e-4
 
 
+@pytest.mark.slow
 @needs_blender
 @pytest.mark.parametrize("rig,fmt", [("mixamo", "fbx"), ("ue5", "glb")])
 def test_apply_writes_onto_the_files_own_armature_and_mesh(tmp_path, rig, fmt):
@@ -92,6 +94,7 @@ def test_apply_writes_onto_the_files_own_armature_and_mesh(tmp_path, rig, fmt):
     assert twists[int(0.99 * (len(twists) - 1))] <= 15.0 and twists[-1] < 150.0  # the twist bounds of docs/RESULTS.md
 
 
+@pytest.mark.slow
 @needs_blender
 def test_format_options_and_a_bvh_result_from_fbx(tmp_path, converter):
     from video2style.cli import main
@@ -123,6 +126,7 @@ def test_without_blender_one_line_names_the_file_and_both_routes(tmp_path, monke
     assert not list((tmp_path / "out").glob("walk*"))
 
 
+@pytest.mark.slow
 def test_a_blender_that_never_answers_is_stopped_with_one_line(tmp_path, monkeypatch):
     import sys
     import time
@@ -137,6 +141,7 @@ def test_a_blender_that_never_answers_is_stopped_with_one_line(tmp_path, monkeyp
     assert blender._proc is None  # ended, not left running
 
 
+@pytest.mark.slow
 @needs_blender
 def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_path, converter, capsys):
     from video2style.cli import main
@@ -162,6 +167,7 @@ def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_pat
     assert len(err) == 1 and "no action 'nothing'" in err[0] and "Second" in err[0]
 
 
+@pytest.mark.slow
 @needs_blender
 def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
     from video2style.cli import main
@@ -176,6 +182,7 @@ def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
     assert (tmp_path / "s.v2s").is_file()
 
 
+@pytest.mark.slow
 @needs_blender
 def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monkeypatch):
     import shutil
@@ -201,6 +208,7 @@ def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monk
     assert [r["status"] for r in again.rows] == ["skipped (done)"] * 2
 
 
+@pytest.mark.slow
 @needs_blender
 def test_a_failed_write_back_leaves_none_of_the_clips_outputs(tmp_path, converter, monkeypatch, capsys):
     from video2style.cli import main
@@ -227,6 +235,7 @@ def test_folders_of_clips_leave_results_out(tmp_path):
         ["a/walk.FBX", "b/run.glb", "c/x.gltf"]
 
 
+@pytest.mark.slow
 @needs_blender
 def test_errors_after_reading_name_the_users_file(tmp_path, converter, capsys):
     from motioncore.bvh import BvhLayout, write_bvh

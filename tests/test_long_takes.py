@@ -53,6 +53,7 @@ def whole_list_apply(model, prior, x, learned, config, step, seed, neutral_text=
     return blend_whole_list(done, starts, x.shape[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("frames", [50, 80, 401])
 @pytest.mark.parametrize("mode", ["difference", "regenerate"])
 def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):

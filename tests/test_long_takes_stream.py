@@ -134,6 +134,7 @@ def style_and_model(tmp_path_factory):
     return style, style_model(load_models().prior, style)
 
 
+@pytest.mark.slow
 @shipped
 @pytest.mark.parametrize("neutralize", ["never", "always"])
 def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style_and_model, neutralize):
@@ -166,6 +167,7 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style
     assert Path(streamed["preview"]).is_file() and Path(streamed["player"]).is_file()
 
 
+@pytest.mark.slow
 @shipped
 def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_model):
     """One apply path (transfer.spans): a take streamed in one span, every guard on, is the whole-clip result."""
@@ -186,6 +188,7 @@ def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_mo
     assert gap < 0.0005, f"{100 * gap:.4f} cm"
 
 
+@pytest.mark.slow
 @shipped
 def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_model):
     from video2style.pipeline import apply_file
@@ -212,6 +215,7 @@ def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_mode
     assert len(calls) == 3 and (not out.exists() or list(out.iterdir()) == [])
 
 
+@pytest.mark.slow
 @shipped
 def test_a_tempo_keeps_the_whole_clip_path_and_says_so(tmp_path, monkeypatch, style_and_model):
     from video2style.pipeline import apply_file

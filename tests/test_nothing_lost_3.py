@@ -15,7 +15,7 @@ from video2style.paths import LOCK_NAME
 
 
 @pytest.fixture
-def fake(fake_pipeline):
+def fake(fake_pipeline):  # conftest.py's fake learn/apply (calls recorded)
     return fake_pipeline
 
 
@@ -283,6 +283,7 @@ def test_a_result_blender_did_not_write_is_named_by_its_own_name(fake_blender, t
     assert not out.exists() and not list(out.parent.iterdir())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["flood", "truncated", "hang-start"])
 def test_a_flooding_or_silent_blender_is_bounded_and_stopped(fake_blender, monkeypatch, mode):
     import time
@@ -299,6 +300,7 @@ def test_a_flooding_or_silent_blender_is_bounded_and_stopped(fake_blender, monke
         assert "truncated" in line and time.time() - t0 < 5.5
 
 
+@pytest.mark.slow
 def test_sigterm_while_blender_hangs_ends_at_once(fake_blender, tmp_path):
     import signal
     import subprocess
@@ -537,6 +539,7 @@ def odd_files(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 def test_an_armature_without_animation_is_refused_and_the_animated_one_taken(odd_files, capsys):
     clip = odd_files / "prop.fbx"
     assert main(["skeleton", str(clip), "--armature", "Prop"]) == 1
@@ -546,6 +549,7 @@ def test_an_armature_without_animation_is_refused_and_the_animated_one_taken(odd
     assert "--armature to choose" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_an_action_of_days_is_refused_before_its_export(odd_files, capsys):
     import time
 
@@ -694,6 +698,7 @@ def _keys_before_frame_0_are_read_with_a_note(tmp_path, conv, fbx):
     assert out["info"]["frame_start"] == 0 and any("starts at frame -11" in n for n in out["info"]["notes"])
 
 
+@pytest.mark.slow
 @needs_blender
 @pytest.mark.parametrize("check", [_an_armature_that_moves_keeps_its_motion, _keys_before_frame_0_are_read_with_a_note],
                          ids=["14-the-armature-moves", "15-keys-before-frame-0"])
@@ -735,6 +740,7 @@ print("RESULT" + json.dumps({"ok": True}))
 """
 
 
+@pytest.mark.slow
 @needs_blender
 def test_the_chosen_action_is_styled_under_its_name_and_the_others_kept(tmp_path, capsys):
     from motioncore.bvh import write_bvh

@@ -1,4 +1,4 @@
-"""Smoke tests of the synthetic rig corpus itself (tests/rig_corpus.py)."""
+"""Smoke tests of the synthetic rig corpus itself (testkit/rig_corpus.py)."""
 import re
 
 import pytest

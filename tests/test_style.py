@@ -254,6 +254,7 @@ def test_a_still_style_model_keeps_only_the_slow_part_of_its_difference():
         still_share(moving[0], base[0])
 
 
+@pytest.mark.slow
 def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_model():
     import torch
 

@@ -128,6 +128,7 @@ def test_a_style_config_that_would_make_apply_slow_is_refused(config, field):
         validate_config(config)
 
 
+@pytest.mark.slow
 def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkeypatch):
     from video2style import pipeline
 

@@ -96,6 +96,7 @@ def rendered(tmp_path_factory, blazepose_models):
     return path, motion
 
 
+@pytest.mark.slow
 def test_pose_file_writes_bvh_and_preview(rendered, tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -117,6 +118,7 @@ def test_pose_file_writes_bvh_and_preview(rendered, tracker, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.bvh", "out_pose.mp4"]  # no temporary files left
 
 
+@pytest.mark.slow
 def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     from lifting.lift import lift_video, video_to_motion
 
@@ -144,6 +146,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert isinstance(video_to_motion(video, tracker=tracker), Motion)
 
 
+@pytest.mark.slow
 def test_grey_video_has_no_person(tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -154,6 +157,7 @@ def test_grey_video_has_no_person(tracker, tmp_path):
     assert_nothing_written(tmp_path)
 
 
+@pytest.mark.slow
 def test_too_little_motion(tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -210,6 +214,7 @@ def test_the_background_import_hands_its_error_to_the_caller():
     assert "json" not in preload._threads and preload.finish("json").dumps([1]) == "[1]"
 
 
+@pytest.mark.slow
 def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path, monkeypatch):
     from lifting import track_process
     from lifting.track_process import track_in_child

@@ -46,6 +46,7 @@ def _alive(pid: int) -> bool:
     return st is not None and st[0] not in ("Z", "X")  # a zombie has stopped; only its parent's reaping is left
 
 
+@pytest.mark.slow
 def test_kill_9_of_pose_ends_its_tracking_child(blazepose_models, tmp_path):
     motion = waving_motion()
     cam = frame_camera(motion.global_positions().numpy(), 35.0, width=W, height=H)

@@ -155,6 +155,7 @@ def head_above_feet(motion) -> float:
     return float((p[:, sk.index("Head"), 1] - feet).mean())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("turn", "fix"), [(90, 270), (180, 180)])
 def test_a_turned_video_is_refused_then_upright_with_rotate(frames, tracker, tmp_path, turn, fix):
     from lifting.lift import lift_video
@@ -175,6 +176,7 @@ def test_a_tagged_phone_video_is_upright_without_rotate(frames, tracker, tmp_pat
     assert head_above_feet(lift_video(tmp_path / "phone.mp4", tracker=tracker).motion) > 1.0
 
 
+@pytest.mark.slow
 def test_pose_cli_refuses_an_upside_down_video_in_one_line(frames, tmp_path):
     video = write_turned(tmp_path / "flipped.mp4", frames, 180)
     run = subprocess.run([sys.executable, "-m", "video2style", "pose", str(video), "-o", str(tmp_path / "f.bvh"),
