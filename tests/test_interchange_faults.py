@@ -1,5 +1,6 @@
-"""Nothing lost, round 3 (issue 53): FBX/glTF outputs checked like BVH ones, locks that are links, glTF resources
-outside the file's folder, style files that are not regular files, a misbehaving Blender (a fake one on PATH)."""
+"""Faults on the FBX/glTF route, its Blender child and the files around it (issue 53, "nothing lost, round 3"):
+FBX/glTF outputs checked like BVH ones, locks that are links, glTF resources outside the file's folder, style
+files that are not regular files, a misbehaving Blender (a fake one on PATH)."""
 import json
 import os
 import sys
