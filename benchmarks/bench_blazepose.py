@@ -18,7 +18,7 @@ from pathlib import Path
 from lifting.blazepose.tracker import PoseTracker
 from lifting.tracking import track
 from lifting.video import iter_frames, video_info
-from tests.lifting.synthetic_blazepose import write_walking_clip
+from testkit.synthetic_blazepose import write_walking_clip
 
 
 def decode_seconds(path: Path) -> float:

@@ -23,8 +23,8 @@ import torch
 
 from motioncore.bvh import read_bvh, write_bvh
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import random_motion
-from tests.rig_corpus import case
+from testkit.motions import random_motion
+from testkit.rig_corpus import case
 from video2style.interchange import Converter
 
 
@@ -109,8 +109,8 @@ def main() -> None:
 
 def skinned() -> None:
     """A skinned character through `video2style apply` (a zero style) in its own format: what the file keeps."""
-    from tests.rig_corpus import case
-    from tests.test_interchange import corpus_bvh, run_script, twist_deg, zero_style
+    from testkit.clips import corpus_bvh, run_script, twist_deg, zero_style
+    from testkit.rig_corpus import case
     from video2style.cli import main as cli
 
     print("\n| clip | mesh, weights, materials kept | rest pose max change | role-bone twist median / p99 / max deg "

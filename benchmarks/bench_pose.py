@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.lifting.accuracy import acceleration, compare
+from testkit.accuracy import acceleration, compare
 
 REPO = Path(__file__).resolve().parents[1]  # the dataset cache's default place
 
@@ -191,7 +191,7 @@ def speed(args) -> None:
 
 def _walking_video(path: Path, frames: int) -> Path:
     """A 1280x720 30 fps render of a walking humanoid (a Bandai test clip when the dataset cache
-    exists, else the synthetic stick figure of ``tests.lifting.synthetic_blazepose``)."""
+    exists, else the synthetic stick figure of ``testkit.synthetic_blazepose``)."""
     try:
         from lifting.render_humanoid import frame_camera, write_humanoid_video
         from motioncore.motion import resample
@@ -204,7 +204,7 @@ def _walking_video(path: Path, frames: int) -> Path:
         m = m.slice(0, min(frames, m.num_frames))
         return write_humanoid_video(m, frame_camera(m.global_positions().numpy(), 40.0), path)
     except (FileNotFoundError, StopIteration, ImportError):
-        from tests.lifting.synthetic_blazepose import write_walking_clip
+        from testkit.synthetic_blazepose import write_walking_clip
 
         return write_walking_clip(path, 1280, 720, n_frames=frames)
 

@@ -18,14 +18,15 @@ import statistics
 import sys
 
 import bpy
+from mathutils import Quaternion
 
 _open = builtins.open
 builtins.open = lambda f, mode="r", *a, **k: _open(f, mode.replace("U", ""), *a, **k)  # Debian's Blender 3.4 importer opens with 'rU'
-from mathutils import Quaternion
 
 argv = sys.argv[sys.argv.index("--") + 1:]
 def load(path):
-    bpy.ops.object.select_all(action='SELECT'); bpy.ops.object.delete()
+    bpy.ops.object.select_all(action='SELECT')
+    bpy.ops.object.delete()
     bpy.ops.import_anim.bvh(filepath=path, global_scale=1.0, rotate_mode='NATIVE')  # the importer's default
     ob = next(o for o in bpy.data.objects if o.type == 'ARMATURE')
     return ob
@@ -37,13 +38,17 @@ def sample(ob, frames):
         for pb in ob.pose.bones:
             out[(f, pb.name)] = ((ob.matrix_world @ pb.matrix).to_quaternion(), (ob.matrix_world @ pb.head).copy(), (ob.matrix_world @ pb.tail).copy())
     return out
-a = load(argv[0]); fa = int(a.animation_data.action.frame_range[1])
+a = load(argv[0])
+fa = int(a.animation_data.action.frame_range[1])
 fr = list(range(1, fa + 1, max(1, fa // 20)))
-A = sample(a, fr); heights_a = max(v[1].z for v in A.values()) - min(v[1].z for v in A.values())
-b = load(argv[1]); B = sample(b, fr); heights_b = max(v[1].z for v in B.values()) - min(v[1].z for v in B.values())
+A = sample(a, fr)
+heights_a = max(v[1].z for v in A.values()) - min(v[1].z for v in A.values())
+b = load(argv[1])
+B = sample(b, fr)
+heights_b = max(v[1].z for v in B.values()) - min(v[1].z for v in B.values())
 print("frames", fa, f"figure height a/b {heights_a:.2f} {heights_b:.2f} file units")
 worst = {}
-for k, (qa, ha, ta) in A.items():
+for k, (qa, _ha, _ta) in A.items():
     qb, hb, tb = B[k]
     # the difference in the input bone's own frame, where the bone runs along Y; its twist is the part
     # about Y (swing-twist split)

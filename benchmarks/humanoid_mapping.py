@@ -2,9 +2,9 @@
 
     python -m benchmarks.humanoid_mapping [--posed N] [FOLDER ...]   # from the repository root (the corpus lives with the tests)
 
-For each convention in tests/rig_corpus.py: whether every role was found exactly, and the
+For each convention in testkit/rig_corpus.py: whether every role was found exactly, and the
 canonical -> rig -> BVH text (its units, channels, Euler orders) -> canonical round-trip error.
-For each convention and each pose of tests/rig_poses.py, on a rest pose laid along X (Bandai's) so
+For each convention and each pose of testkit/rig_poses.py, on a rest pose laid along X (Bandai's) so
 that the frames decide: whether every role was found exactly. For each real file: how long the
 mapping took, what decided it (rest pose, frames, joint names), the up axis, and, where the file
 names its joints after the canonical roles (Bandai), whether the roles found are those names.
@@ -25,9 +25,9 @@ from motioncore.kinematics import fk
 from motioncore.motion import Motion
 from motioncore.retarget import RetargetError, from_canonical, make_rig, to_canonical
 from motioncore.skeleton import CANONICAL, Skeleton
-from tests.helpers import random_motion
-from tests.rig_corpus import CASES, DISPUTED_CASES
-from tests.rig_poses import POSES, posed_motion
+from testkit.motions import random_motion
+from testkit.rig_corpus import CASES, DISPUTED_CASES
+from testkit.rig_poses import POSES, posed_motion
 
 
 def corpus() -> None:

@@ -21,8 +21,8 @@ from motioncore import quat
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.motion import Motion
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import cmu_like_skeleton
-from tests.rig_corpus import case
+from testkit.motions import cmu_like_skeleton
+from testkit.rig_corpus import case
 
 
 def long_walk(frames: int, fps: float = 30.0) -> Motion:
@@ -65,7 +65,7 @@ def main() -> None:
     ap.add_argument("--fps", type=float, default=30.0, help="the takes' frame rate (1: a 5-hour take is 18,000 frames; "
                     "apply resamples to 20 fps first)")
     ap.add_argument("--out", type=Path, default=Path("/tmp/long_clips"))
-    ap.add_argument("--rig", default="mixamo", help="rig convention from tests/rig_corpus.py (default: %(default)s)")
+    ap.add_argument("--rig", default="mixamo", help="rig convention from testkit/rig_corpus.py (default: %(default)s)")
     ap.add_argument("--no-preview", action="store_true")
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)

@@ -22,7 +22,7 @@ import torch
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.representation import encode
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 from transfer.bundle import load_models
 from transfer.style_config import LearnConfig
 from transfer.style_file import Style, style_model

@@ -104,3 +104,19 @@ def foot_contact_agreement(feats_a: torch.Tensor | Sequence[torch.Tensor], feats
     return agree / total
 
 
+def trunk_lean(motion) -> float:
+    """Median forward lean of a canonical ``motion``'s trunk in degrees: Hips -> Neck against the vertical, in the
+    hips' facing frame (:func:`motioncore.representation.facing_frame`); positive leans forward."""
+    import torch
+
+    from motioncore.representation import facing_frame
+    from motioncore.skeleton import CANONICAL
+
+    names = CANONICAL.skeleton.names
+    if tuple(motion.skeleton.names) != tuple(names):
+        raise ValueError(f"trunk_lean: expected a motion on the canonical skeleton, got joints {motion.skeleton.names[:3]}...")
+    gpos = motion.global_positions().float()
+    _, rel = facing_frame(gpos)  # joints 1.. relative to the root's ground point: x left, y up, z forward
+    v = rel[:, names.index("Neck") - 1] - torch.stack([torch.zeros_like(gpos[:, 0, 1]), gpos[:, 0, 1],
+                                                       torch.zeros_like(gpos[:, 0, 1])], -1)
+    return float(torch.rad2deg(torch.atan2(v[:, 2], v[:, 1])).median())

@@ -48,6 +48,10 @@ class BvhLayout:
     scale: float = 1.0
     frame_time: str | None = None  # "Frame Time:" as the file wrote it; kept on writing at the same frame rate
     encoding: str = "utf-8"  # "latin-1" for a file that is not UTF-8: its joint names are written back byte for byte
+    # the OFFSETs as the file has them (file units, float64): written back as they were where the skeleton still
+    # has them (the float32 skeleton alone would write 10.000000 as 9.999999)
+    offsets: tuple[tuple[float, float, float], ...] | None = None
+    end_sites: tuple[tuple[int, tuple[float, float, float]], ...] | None = None
 
     @staticmethod
     def default(skeleton: Skeleton, order: str = "ZXY", scale: float = 1.0) -> BvhLayout:
@@ -306,12 +310,15 @@ def _assemble(hierarchy, data: np.ndarray, frame_time: float, frame_time_text: s
         tuple(names),
         tuple(parents),
         torch.tensor(off * scale, dtype=torch.float32),
-        {k: torch.tensor(v, dtype=torch.float32) * scale for k, v in end_sites.items()},
+        {k: torch.tensor(np.asarray(v, dtype=np.float64) * scale, dtype=torch.float32) for k, v in end_sites.items()},
     )
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) < 1e-4 * fps:  # "0.0333333" means 30 fps
         fps = float(round(fps))
-    return Motion(skeleton, lrot, lpos, fps), BvhLayout(tuple(channels), scale, frame_time_text)
+    layout = BvhLayout(tuple(channels), scale, frame_time_text,
+                       offsets=tuple(tuple(float(x) for x in o) for o in off.tolist()),
+                       end_sites=tuple(sorted((k, tuple(float(x) for x in v)) for k, v in end_sites.items())))
+    return Motion(skeleton, lrot, lpos, fps), layout
 
 
 STREAM_BYTES = 16 * 1024 * 1024  # larger files: the frame numbers are read straight from the file
@@ -402,11 +409,20 @@ def _header(motion: Motion, layout: BvhLayout) -> list[str]:
     inv_scale = 1.0 / layout.scale
     out = ["HIERARCHY"]
     children = {i: sk.children(i) for i in range(sk.num_joints)}
+    file_offsets = layout.offsets if layout.offsets is not None and len(layout.offsets) == sk.num_joints else None
+    file_ends = dict(layout.end_sites or ())
+
+    def as_written(metres: torch.Tensor, written) -> tuple[float, float, float]:
+        """An offset in file units: the file's own where the skeleton still has it (to float32's precision)."""
+        if written is not None and torch.allclose(metres.double(), torch.tensor(written, dtype=torch.float64) *
+                                                  layout.scale, rtol=1e-6, atol=1e-9):
+            return written
+        return tuple(float(x) for x in metres.double() * inv_scale)
 
     def emit(i: int, depth: int) -> None:
         pad = "  " * depth
         kw = "ROOT" if i == 0 else "JOINT"
-        o = sk.offsets[i].double() * inv_scale
+        o = as_written(sk.offsets[i], file_offsets[i] if file_offsets is not None else None)
         out.append(f"{pad}{kw} {sk.names[i]}")
         out.append(f"{pad}{{")
         out.append(f"{pad}  OFFSET {o[0]:.6f} {o[1]:.6f} {o[2]:.6f}")
@@ -414,7 +430,7 @@ def _header(motion: Motion, layout: BvhLayout) -> list[str]:
         for c in children[i]:
             emit(c, depth + 1)
         if not children[i] or i in sk.end_sites:
-            e = sk.end_sites.get(i, torch.zeros(3)).double() * inv_scale
+            e = as_written(sk.end_sites[i], file_ends.get(i)) if i in sk.end_sites else (0.0, 0.0, 0.0)
             out.extend([f"{pad}  End Site", f"{pad}  {{", f"{pad}    OFFSET {e[0]:.6f} {e[1]:.6f} {e[2]:.6f}", f"{pad}  }}"])
         out.append(f"{pad}}}")
 

@@ -121,12 +121,38 @@ class BvhFrames:
             raw = f.read(int(self.starts[b] - self.starts[a]))
         data = _numbers(raw.decode("ascii", errors="replace"))
         if data is None or data.size != (b - a) * self._channels:
-            raise BvhError(f"{self.path}: frames {a + 1}-{b}: expected {self._channels} numbers per frame")
+            raise self._bad_line(raw, a, b)
         if not np.isfinite(data).all():
             raise BvhError(f"{self.path}: frame data holds NaN or infinite values")
         if data.size and np.abs(data).max() > MAX_MAGNITUDE:
             raise BvhError(f"{self.path}: frame data holds values of magnitude above {MAX_MAGNITUDE:g}")
         return data.reshape(b - a, self._channels)
+
+    def _bad_line(self, raw: bytes, a: int, b: int) -> BvhError:
+        """The error for frames ``a..b-1`` (their bytes ``raw``), which hold a frame that is not ``_channels``
+        numbers: it names the file's line, as :func:`motioncore.bvh.read_bvh` does."""
+        base = int(self.starts[a])
+        for i in range(a, b):
+            row = raw[int(self.starts[i]) - base:int(self.starts[i + 1]) - base].decode("ascii", errors="replace")
+            values = _numbers(row)
+            if values is None:
+                return BvhError(f"{self.path}:{self._line_of(int(self.starts[i]))}: expected numbers in the frame data")
+            if values.size != self._channels:
+                return BvhError(f"{self.path}:{self._line_of(int(self.starts[i]))}: expected {self._channels} values "
+                                f"per frame, got {values.size}")
+        return BvhError(f"{self.path}: frames {a + 1}-{b}: expected {self._channels} numbers per frame")
+
+    def _line_of(self, offset: int) -> int:
+        """The number (from 1) of the file's line that starts at byte ``offset`` (counted only for an error)."""
+        count, pos = 1, 0
+        with open(self.path, "rb") as f:
+            while pos < offset:
+                chunk = f.read(min(_SCAN, offset - pos))
+                if not chunk:
+                    break
+                count += chunk.count(b"\n")
+                pos += len(chunk)
+        return count
 
     def __len__(self) -> int:
         return self.num_frames

@@ -1,91 +1,120 @@
-"""Synthetic motions for tests: smooth, seeded, on the canonical skeleton."""
+"""Helpers the tests share (fixtures are in conftest.py): toy models and styles, BVH clips, fake learn/apply, Blender's
+availability."""
 from __future__ import annotations
 
-import math
+import functools
+import subprocess
+import threading
+from pathlib import Path
 
+import pytest
 import torch
 
-from motioncore import quat
-from motioncore.motion import Motion
+from evaluation.classifiers import ClassifierConfig, MotionClassifier
+from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.skeleton import CANONICAL
+from testkit.motions import random_motion
+from transfer.checkpoints import save_model
+from transfer.denoiser import Denoiser, DenoiserConfig
+from transfer.lora import LoRALinear, add_lora, lora_state
+from transfer.style_config import LearnConfig
+from transfer.style_file import Style
+from video2style import interchange
+from video2style.interchange import blender_command
 
 
-def random_motion(seconds: float = 10.0, fps: float = 20.0, seed: int = 0, amplitude: float = 0.5) -> Motion:
-    """A walking-ish canonical motion: smooth random joint rotations, a curved root path."""
-    g = torch.Generator().manual_seed(seed)
-    sk = CANONICAL.skeleton
-    t = int(seconds * fps)
-    time = torch.arange(t) / fps
-    j = sk.num_joints
-    freq = 0.3 + torch.rand(j, 3, 3, generator=g) * 1.5
-    phase = torch.rand(j, 3, 3, generator=g) * 2 * math.pi
-    amp = torch.rand(j, 3, 3, generator=g) * amplitude
-    angles = (amp * torch.sin(2 * math.pi * freq * time[:, None, None, None] + phase)).sum(-1)  # (T, J, 3)
-    lrot = quat.from_euler(angles, "ZXY")
-    heading = 0.4 * torch.sin(2 * math.pi * 0.05 * time) + 0.3 * time / seconds
-    lrot[:, 0] = quat.mul(quat.from_yaw(heading), lrot[:, 0])
-    speed = 1.2
-    dx = speed / fps * torch.sin(heading)
-    dz = speed / fps * torch.cos(heading)
-    root = torch.stack([torch.cumsum(dx, 0), 0.9 + 0.03 * torch.sin(2 * math.pi * 2 * time), torch.cumsum(dz, 0)], -1)
-    lpos = sk.offsets.expand(t, -1, -1).clone()
-    lpos[:, 0] = root
-    return Motion(sk, lrot, lpos, fps)
+def tiny_denoiser(seed=0):
+    torch.manual_seed(seed)
+    return Denoiser(DenoiserConfig(width=32, layers=2, heads=2, ff=64, dropout=0.0)).eval()
 
 
-def bandai_like_skeleton(seed: int = 0):
-    """Canonical joints under a ``joint_Root``, each bone's rest direction twisted at random, centimetres."""
-    from motioncore.skeleton import Skeleton
+def trained_style(prior):
+    import copy
 
-    g = torch.Generator().manual_seed(seed)
-    sk = CANONICAL.skeleton
-    frames = quat.normalize(torch.randn(sk.num_joints, 4, generator=g))
-    offsets = [torch.zeros(3)]
-    for i in range(sk.num_joints):
-        if i == 0:
-            offsets.append(torch.tensor([0.05, 0.9, -4.2]))
-        else:  # express the canonical bone in the parent's twisted rest frame
-            offsets.append(quat.mul_vec(quat.inv(frames[sk.parents[i]]), sk.offsets[i]) * 1.1)
-    names = ("joint_Root",) + sk.names
-    parents = (-1,) + tuple(p + 1 for p in sk.parents)
-    return Skeleton(names, parents, torch.stack(offsets))
+    model = copy.deepcopy(prior)
+    add_lora(model, rank=8)
+    for m in model.modules():
+        if isinstance(m, LoRALinear):
+            torch.nn.init.normal_(m.lora_b, std=0.5)
+    return Style(lora_state(model), {"rank": 8})
 
 
-CANONICAL_NAMES_MAP = {n: n for n in CANONICAL.skeleton.names}  # a joint map for skeletons using the canonical names
-
-CMU_LIKE_ROLES = {
-    "Hips": "Hips", "Spine": "Spine", "Chest": "Spine1", "Neck": "Neck", "Head": "Head",
-    **{f"{c}_{s}": f"{side}{n}" for s, side in (("L", "Left"), ("R", "Right")) for c, n in (
-        ("Shoulder", "Shoulder"), ("UpperArm", "Arm"), ("LowerArm", "ForeArm"), ("Hand", "Hand"),
-        ("UpperLeg", "UpLeg"), ("LowerLeg", "Leg"), ("Foot", "Foot"), ("Toes", "ToeBase"))},
-}  # what the automatic mapping must find in cmu_like_skeleton()
+def toy_learn_config(**kw):
+    return LearnConfig(iterations=4, pair_ddim_steps=3, transfer_ddim_steps=2, content_batch=2, window=24, **kw)
 
 
-def cmu_like_skeleton():
-    """A CMU-style hierarchy (zero-length helper joints, extra spine and finger joints) in a T-pose."""
-    from motioncore.skeleton import Skeleton
+def snapshot_tree(root: Path) -> dict[str, bytes | None]:
+    """Every path under ``root`` with its bytes (None for folders and links): what a refused run must leave alone."""
+    out = {}
+    for p in sorted(root.rglob("*")):
+        out[str(p.relative_to(root))] = p.read_bytes() if p.is_file() and not p.is_symlink() else None
+    return out
 
-    rows = [
-        ("Hips", None, (0, 0, 0)),
-        ("LHipJoint", "Hips", (0, 0, 0)), ("LeftUpLeg", "LHipJoint", (0.09, -0.07, 0.02)),
-        ("LeftLeg", "LeftUpLeg", (0.0, -0.42, 0)), ("LeftFoot", "LeftLeg", (0, -0.43, 0)),
-        ("LeftToeBase", "LeftFoot", (0, -0.04, 0.12)),
-        ("RHipJoint", "Hips", (0, 0, 0)), ("RightUpLeg", "RHipJoint", (-0.09, -0.07, 0.02)),
-        ("RightLeg", "RightUpLeg", (0.0, -0.42, 0)), ("RightFoot", "RightLeg", (0, -0.43, 0)),
-        ("RightToeBase", "RightFoot", (0, -0.04, 0.12)),
-        ("LowerBack", "Hips", (0, 0, 0)), ("Spine", "LowerBack", (0, 0.11, -0.01)),
-        ("Spine1", "Spine", (0, 0.11, 0)), ("Neck", "Spine1", (0, 0, 0)), ("Neck1", "Neck", (0, 0.17, 0.01)),
-        ("Head", "Neck1", (0, 0.09, -0.01)),
-        ("LeftShoulder", "Spine1", (0, 0, 0)), ("LeftArm", "LeftShoulder", (0.18, 0.06, -0.02)),
-        ("LeftForeArm", "LeftArm", (0.27, 0, 0)), ("LeftHand", "LeftForeArm", (0.19, 0, 0)),
-        ("LeftFingerBase", "LeftHand", (0.0, 0, 0)), ("LeftHandIndex1", "LeftFingerBase", (0.04, 0, 0)),
-        ("LThumb", "LeftHand", (0.02, 0, 0.02)),
-        ("RightShoulder", "Spine1", (0, 0, 0)), ("RightArm", "RightShoulder", (-0.18, 0.06, -0.02)),
-        ("RightForeArm", "RightArm", (-0.27, 0, 0)), ("RightHand", "RightForeArm", (-0.19, 0, 0)),
-        ("RightFingerBase", "RightHand", (0.0, 0, 0)), ("RightHandIndex1", "RightFingerBase", (-0.04, 0, 0)),
-        ("RThumb", "RightHand", (-0.02, 0, 0.02)),
-    ]
-    names = tuple(r[0] for r in rows)
-    parents = tuple(-1 if r[1] is None else names.index(r[1]) for r in rows)
-    ends = {names.index("Head"): torch.tensor([0.0, 0.15, 0.0])}
-    return Skeleton(names, parents, torch.tensor([r[2] for r in rows], dtype=torch.float32), ends)
+
+def fake_apply(monkeypatch, gate: threading.Event | None = None, started: threading.Event | None = None):
+    """apply's style loading and work replaced: each result names the style file it came from."""
+    def load(path):
+        s = FakeStyle()
+        s.meta = {"style": Path(path).name}
+        return s
+
+    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / f"{clip.stem}.bvh").write_text(style.meta["style"])
+        if started is not None:
+            started.set()
+            gate.wait(30)
+        (out_dir / f"{clip.stem}_preview.mp4").write_text(style.meta["style"])
+        return {"output": str(out_dir / f"{clip.stem}.bvh"), "frames": 20, "seconds_transfer": 0.0}
+
+    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
+    monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
+    monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
+    monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
+
+
+def write_clip(path: Path, seconds: float = 1.0) -> Path:
+    write_bvh(path, random_motion(seconds=seconds), BvhLayout.default(CANONICAL.skeleton, scale=0.01))
+    return path
+
+
+class FakeStyle:
+    def __init__(self):
+        self.meta = {}
+
+
+def make_library(tmp_path: Path) -> tuple[Path, Path]:
+    videos, content = tmp_path / "videos", tmp_path / "content"
+    videos.mkdir()
+    for name in ("old.mp4", "old.mov", "strut.mp4"):
+        (videos / name).write_bytes(b"not read by the fake learner")
+    for rel in ("a/walk.bvh", "b/walk.bvh", "run.bvh"):
+        (content / rel).parent.mkdir(parents=True, exist_ok=True)
+        (content / rel).write_text("clip")
+    return videos, content
+
+
+@functools.lru_cache(maxsize=1)
+def blender_problem() -> str | None:
+    cmd = blender_command()
+    if cmd is None:
+        return "neither the bpy module nor a `blender` on PATH (pip install \"video2style[fbx]\" or apt install blender python3-numpy)"
+    if "--python" in cmd:  # blender -b: its own Python must have numpy
+        probe, env = [cmd[0], "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", "import numpy"], \
+            interchange.blender_env()
+    else:
+        probe, env = [cmd[0], "-c", "import bpy, numpy"], None
+    proc = subprocess.run(probe, check=False, capture_output=True, text=True, timeout=120, env=env)
+    if proc.returncode != 0:
+        return "Blender's Python lacks numpy, which its FBX/glTF add-ons need (apt install python3-numpy)"
+    return None
+
+
+needs_blender = pytest.mark.skipif(blender_problem() is not None, reason=f"no usable Blender: {blender_problem()}")
+
+
+def random_classifier(path: Path, target: str, classes: list[str]) -> Path:
+    torch.manual_seed(len(classes))
+    model = MotionClassifier(ClassifierConfig(target=target, classes=classes, channels=[8, 8], strides=[2, 1]))
+    save_model(model.eval(), model.config, path)
+    return path

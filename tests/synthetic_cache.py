@@ -9,7 +9,7 @@ import torch
 from safetensors.torch import save_file
 
 from motioncore.representation import encode
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 from transfer.captions import caption
 from transfer.dataset import STD_FLOOR, ClipRecord
 

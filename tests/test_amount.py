@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from tests.test_learn import _config, toys  # noqa: F401 - the toy models' fixture
+from tests.helpers import toy_learn_config
 from transfer.amount import (
     GAIN_RANGE,
     calibrate_gain,
@@ -83,15 +83,16 @@ def test_a_style_files_amount_is_read_and_checked():
             validate_meta({"amount": bad})
 
 
-def test_learning_records_the_calibrated_amount(toys):  # noqa: F811 - the fixture
+@pytest.mark.slow
+def test_learning_records_the_calibrated_amount(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
     assert calibration_clips(data)  # the synthetic cache has a neutral walk
-    style, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(calibrate=True))
+    style, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config(calibrate=True))
     amount = style.meta["amount"]
     assert set(amount) == {"gain", "target", "reached"} and GAIN_RANGE[0] <= amount["gain"] <= GAIN_RANGE[1]
     assert amount["target"] > 0 and style.gain == amount["gain"]
-    again, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(calibrate=True))
+    again, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config(calibrate=True))
     assert again.meta["amount"] == amount  # seeded: the same amount
-    plain, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())  # the default: gain 1
+    plain, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config())  # the default: gain 1
     assert "amount" not in plain.meta and plain.gain == 1.0

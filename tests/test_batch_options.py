@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_hardening import _library, fake_pipeline  # noqa: F401 - the fixture
+from tests.helpers import make_library
 from video2style.cli import build_parser, main
 
 PARK_ONLY = {"--method", "--domain", "--variants", "--reference", "--mix", "--mix-steps", "--park-weights", "--weights"}
@@ -33,23 +33,23 @@ def test_batch_has_every_apply_option_with_the_same_meaning():
             (y.dest, y.default, y.choices, y.help, y.type, y.nargs, y.const), name
 
 
-def test_batch_passes_every_apply_option_to_apply(tmp_path, fake_pipeline):  # noqa: F811
-    videos, content = _library(tmp_path)
+def test_batch_passes_every_apply_option_to_apply(tmp_path, fake_pipeline):
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     assert main(["batch", str(videos / "strut.mp4"), "--content", str(content), "-o", str(out), "--strength", "0.7",
                  "--seed", "3", "--tempo", "0.8", "--neutralize", "never", "--no-preview"]) == 0
     assert fake_pipeline["apply_args"] and set(fake_pipeline["apply_args"]) == {(0.7, 3, "never", None, False, "0.8")}
 
 
-def test_batch_refuses_a_bad_apply_option_in_one_line_before_any_work(tmp_path, fake_pipeline, capsys):  # noqa: F811
-    videos, content = _library(tmp_path)
+def test_batch_refuses_a_bad_apply_option_in_one_line_before_any_work(tmp_path, fake_pipeline, capsys):
+    videos, content = make_library(tmp_path)
     assert main(["batch", str(videos), "--content", str(content), "-o", str(tmp_path / "out"), "--tempo", "9"]) == 1
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "--tempo" in err and not fake_pipeline["learn"]
 
 
-def test_batch_reuses_style_files_and_takes_mixed_sources(tmp_path, fake_pipeline):  # noqa: F811
-    videos, content = _library(tmp_path)
+def test_batch_reuses_style_files_and_takes_mixed_sources(tmp_path, fake_pipeline):
+    videos, content = make_library(tmp_path)
     mine = tmp_path / "styles_made" / "mine.v2s"
     mine.parent.mkdir()
     mine.write_text("style")  # what the fake loader takes for a style file
@@ -71,8 +71,8 @@ def test_batch_reuses_style_files_and_takes_mixed_sources(tmp_path, fake_pipelin
     assert (tmp_path / "out2" / "kept" / "run.bvh").is_file()
 
 
-def test_a_style_file_that_does_not_load_is_one_failed_item(tmp_path, fake_pipeline):  # noqa: F811
-    videos, content = _library(tmp_path)
+def test_a_style_file_that_does_not_load_is_one_failed_item(tmp_path, fake_pipeline):
+    _, content = make_library(tmp_path)
     bad = tmp_path / "bad.v2s"
     bad.write_bytes(b"\x00garbage")
     assert main(["batch", str(bad), "--content", str(content), "-o", str(tmp_path / "out")]) == 1
@@ -110,6 +110,7 @@ def _lines(text: str, start: str) -> list[str]:
     return [ln.strip() for ln in text.splitlines() if ln.strip().startswith(start)]
 
 
+@pytest.mark.slow
 def test_apply_says_in_one_short_plain_line_per_clip_what_happened_and_writes_the_page(quick_style, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["apply", str(quick_style), str(SAMPLES / "run_prior.bvh"), "-o", str(out)]) == 0
@@ -126,6 +127,7 @@ def test_apply_says_in_one_short_plain_line_per_clip_what_happened_and_writes_th
     assert "run_prior_player.js" in index and 'class="player"' in index and "index.html" in printed
 
 
+@pytest.mark.slow
 def test_batch_prints_a_line_per_clip_and_its_report_holds_the_numbers(quick_style, tmp_path, capsys):
     content = tmp_path / "content"
     content.mkdir()
@@ -150,6 +152,7 @@ def test_the_line_names_the_guards_that_held_the_style_back():
                     "guard left out 9% of the fast change; arms kept their own motion (3% of the style's)")
 
 
+@pytest.mark.slow
 def test_learn_says_each_number_in_the_files_own_frames_and_seconds_and_a_guess_as_a_guess(tmp_path, monkeypatch,
                                                                                           capsys):
     from transfer.apply import Reading

@@ -43,12 +43,13 @@ print("RESULT" + json.dumps({"result": list(result), "original": original.name, 
 '''
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(BLENDER is None, reason="no Blender here (Debian: apt install blender)")
 def test_the_addon_keys_a_styled_copy_of_the_action(tmp_path):
     from motioncore.bvh import write_bvh
     from motioncore.retarget import from_canonical, make_rig
-    from tests.helpers import random_motion
-    from tests.rig_corpus import case
+    from testkit.motions import random_motion
+    from testkit.rig_corpus import case
     from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
     from transfer.style_file import Style

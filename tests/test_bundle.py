@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from tests.test_style import tiny_denoiser
+from tests.helpers import tiny_denoiser
 from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
 from transfer.shipped import weights_path
 

@@ -17,7 +17,7 @@ from motioncore.bvh import (
 )
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
-from tests.helpers import bandai_like_skeleton, cmu_like_skeleton, random_motion
+from testkit.motions import bandai_like_skeleton, cmu_like_skeleton, random_motion
 
 SMALL = """HIERARCHY
 ROOT Hips

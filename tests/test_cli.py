@@ -18,6 +18,7 @@ def test_help_lists_commands_with_examples():
     assert "examples:" in r.stdout
 
 
+@pytest.mark.slow
 def test_preview_of_a_malformed_bvh_is_one_line_naming_file_and_line(tmp_path):
     bad = tmp_path / "bad.bvh"
     bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 zero 0\n")
@@ -75,7 +76,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_temp_file(tmp_path, capsys, monke
 
     from motioncore.bvh import BvhLayout, write_bvh
     from motioncore.skeleton import CANONICAL
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     clip = tmp_path / "c.bvh"
     write_bvh(clip, random_motion(seconds=1.0), BvhLayout.default(CANONICAL.skeleton, scale=0.01))

@@ -9,7 +9,7 @@ import torch
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
 from park.networks import ParkConfig, ParkModel
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 from transfer.checkpoints import save_model
 from video2style.cli import main
 
@@ -43,6 +43,7 @@ def test_park_variants_write_one_bvh_each_on_the_clip_skeleton(park_weights, cli
     assert not torch.allclose(a.lrot, b.lrot, atol=1e-4)  # distinct noise, distinct outputs
 
 
+@pytest.mark.slow
 def test_park_mix_and_reference(park_weights, clip, tmp_path):
     out = tmp_path / "mix"
     assert main(["apply", "--method", "park", "--domain", "elderly", "--mix", "exhausted", "--mix-steps", "3",
@@ -110,16 +111,17 @@ def test_pose_of_a_non_video_names_the_file(tmp_path, capsys):
     assert "bad.mp4" in err and not (tmp_path / "bad.bvh").exists()
 
 
+@pytest.mark.slow
 def test_evaluate_identity_and_park_on_a_tiny_cache(tmp_path, park_weights, monkeypatch):
+    from tests.helpers import random_classifier
     from tests.synthetic_cache import write_synthetic_cache
-    from tests.test_evaluation import _random_classifier
     from transfer.captions import BANDAI2_CONTENTS, STYLES
     from video2style import park_apply
     from video2style.evaluate import evaluate
 
     cache = write_synthetic_cache(tmp_path / "cache")
-    weights = {"content": _random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
-               "style": _random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
+    weights = {"content": random_classifier(tmp_path / "c.safetensors", "content", list(BANDAI2_CONTENTS)),
+               "style": random_classifier(tmp_path / "s.safetensors", "style", list(STYLES))}
     monkeypatch.setattr("evaluation.protocol.default_weights", lambda target: weights[target])
     park_apply.park_model.cache_clear()
     monkeypatch.setattr(park_apply, "weights_path", lambda name: park_weights)
@@ -152,6 +154,7 @@ def test_evaluate_takes_the_older_names_of_methods_and_weights():
     assert len({repr(c) for c in configs.values()}) == len(configs)  # no two variants alike
 
 
+@pytest.mark.slow
 def test_train_classifier_command_on_a_tiny_cache(tmp_path, capsys):
     from tests.synthetic_cache import write_synthetic_cache
 
@@ -173,6 +176,7 @@ def test_garbage_park_weights_are_one_line(tmp_path, clip, capsys):
     assert rc == 1 and f"{bad}: not Park stylizer weights" in err and "\n" not in err
 
 
+@pytest.mark.slow
 def test_training_commands_never_replace_the_shipped_weights_unless_named(tmp_path, capsys):
     """By default train-classifier exports into its run folder; the installed weights stay as they were."""
     import hashlib

@@ -94,7 +94,7 @@ def test_force_solves_a_motion_in_the_convention_too():
 
 
 def test_roll_deviation_wants_the_canonical_skeleton():
-    from tests.helpers import bandai_like_skeleton
+    from testkit.motions import bandai_like_skeleton
 
     sk = bandai_like_skeleton()
     m = Motion(sk, quat.identity(3, sk.num_joints), sk.offsets.expand(3, -1, -1).clone(), 20.0)

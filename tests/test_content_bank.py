@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from tests.test_style import tiny_denoiser
+from tests.helpers import tiny_denoiser
 from transfer.bundle import MethodBundle
 from transfer.captions import BANDAI2_CONTENTS
 from transfer.content_bank import DATA_FRAMES, ContentBank, make_content_bank
@@ -23,6 +23,7 @@ class _Words:
         return torch.stack([torch.randn(384, generator=torch.Generator().manual_seed(len(c))) for c in captions])
 
 
+@pytest.mark.slow
 def test_the_bank_draws_no_content_longer_than_the_prior_saw_it(tmp_path):
     assert set(DATA_FRAMES) == set(BANDAI2_CONTENTS)
     bundle = MethodBundle(tiny_denoiser(), torch.zeros(FEATURES.dim), torch.ones(FEATURES.dim), text_encoder=_Words())

@@ -8,23 +8,15 @@ from pathlib import Path
 import pytest
 
 from motioncore.files import is_temp_name, temp_beside
-from tests.test_hardening import _clip, _FakeStyle, _library, fake_pipeline  # noqa: F401 - a fixture, used by fake
+from tests.helpers import fake_apply, make_library, snapshot_tree, write_clip
 from video2style import batch
 from video2style.cli import main
 from video2style.paths import LOCK_NAME, check_outputs, same_path
 
 
 @pytest.fixture
-def fake(fake_pipeline):  # noqa: F811 - test_hardening's fake learn/apply (calls recorded)
+def fake(fake_pipeline):  # conftest.py's fake learn/apply (calls recorded)
     return fake_pipeline
-
-
-def _snapshot(root: Path) -> dict[str, bytes | None]:
-    """Every path under ``root`` with its bytes (None for folders and links): what a refused run must leave alone."""
-    out = {}
-    for p in sorted(root.rglob("*")):
-        out[str(p.relative_to(root))] = p.read_bytes() if p.is_file() and not p.is_symlink() else None
-    return out
 
 
 @pytest.fixture
@@ -33,10 +25,10 @@ def workdir(tmp_path, monkeypatch):
     ``videos/`` (a video), ``m.json``, ``d/`` (a dataset folder), ``runs/prior/denoiser.safetensors``, a symlink
     and a hard link to ``c.bvh``, and ``w.safetensors``."""
     monkeypatch.chdir(tmp_path)
-    _clip(tmp_path / "c.bvh")
+    write_clip(tmp_path / "c.bvh")
     (tmp_path / "x.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42 not really a video")
     for rel in ("lib/walk.bvh", "lib/sub/run.bvh"):
-        _clip(tmp_path / rel)
+        write_clip(tmp_path / rel)
     (tmp_path / "videos").mkdir()
     (tmp_path / "videos" / "lib.mp4").write_bytes(b"video")
     (tmp_path / "m.json").write_text("{}")
@@ -91,13 +83,13 @@ REFUSED = [  # command line -> each writes over one of its inputs (spelled anoth
 
 @pytest.mark.parametrize("argv", REFUSED, ids=[" ".join(a) for a in REFUSED])
 def test_an_output_that_is_an_input_is_refused_in_one_line_before_any_work(workdir, capsys, monkeypatch, argv):
-    _fake_apply(monkeypatch)  # a style file that loads; a refusal must come before any clip is written
+    fake_apply(monkeypatch)  # a style file that loads; a refusal must come before any clip is written
     argv = [a.format(tmp=workdir, name=workdir.name) for a in argv]
-    before = _snapshot(workdir)
+    before = snapshot_tree(workdir)
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and ("would overwrite" in err or "same file" in err or "write results into" in err), err
-    assert _snapshot(workdir) == before  # inputs untouched, nothing made
+    assert snapshot_tree(workdir) == before  # inputs untouched, nothing made
 
 
 def test_outputs_beside_their_inputs_are_still_allowed(workdir):
@@ -113,17 +105,17 @@ def test_the_demo_refuses_to_write_into_its_samples(tmp_path):
     samples = tmp_path / "pose"
     samples.mkdir()
     (samples / "walk.mp4").write_bytes(b"video")
-    _clip(samples / "walk.bvh")
-    before = _snapshot(tmp_path)
+    write_clip(samples / "walk.bvh")
+    before = snapshot_tree(tmp_path)
     for out in (samples, tmp_path):  # the batch's results among the samples; pose's OUT/pose/walk.bvh over walk.bvh
         with pytest.raises(ValueError, match="would overwrite"):
             run_demo(out, progress=lambda s: None, samples=samples)
-    assert _snapshot(tmp_path) == before
+    assert snapshot_tree(tmp_path) == before
 
 
 # 2. The batch's sweep removes only the temporary files this program made.
 def test_the_sweep_leaves_files_that_merely_look_like_ours(tmp_path, fake):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     (out / "old_mp4").mkdir(parents=True)
     ours = temp_beside(out / "old_mp4" / "walk_preview.mp4")  # what a killed run leaves
@@ -143,32 +135,12 @@ def test_the_sweep_leaves_files_that_merely_look_like_ours(tmp_path, fake):
 
 
 # 3. Two apply runs into one folder do not interleave.
-def _fake_apply(monkeypatch, gate: threading.Event | None = None, started: threading.Event | None = None):
-    """apply's style loading and work replaced: each result names the style file it came from."""
-    def load(path):
-        s = _FakeStyle()
-        s.meta = {"style": Path(path).name}
-        return s
-
-    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / f"{clip.stem}.bvh").write_text(style.meta["style"])
-        if started is not None:
-            started.set()
-            gate.wait(30)
-        (out_dir / f"{clip.stem}_preview.mp4").write_text(style.meta["style"])
-        return {"output": str(out_dir / f"{clip.stem}.bvh"), "frames": 20, "seconds_transfer": 0.0}
-
-    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
-    monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
-    monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
-    monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
 
 
 def test_a_second_apply_into_the_same_folder_is_refused_while_the_first_writes(tmp_path, monkeypatch, capsys):
     gate, started = threading.Event(), threading.Event()
-    _fake_apply(monkeypatch, gate, started)
-    clip, out = _clip(tmp_path / "in" / "walk.bvh"), tmp_path / "out"
+    fake_apply(monkeypatch, gate, started)
+    clip, out = write_clip(tmp_path / "in" / "walk.bvh"), tmp_path / "out"
     (tmp_path / "a.v2s").write_text("a")
     (tmp_path / "b.v2s").write_text("b")
     codes = []
@@ -191,7 +163,7 @@ def test_a_second_apply_into_the_same_folder_is_refused_while_the_first_writes(t
 
 # 4. A batch never reads its own results back as content.
 def test_a_batch_with_its_output_inside_the_content_never_restyles_its_results(tmp_path, fake, capsys):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = content / "results"
     batch.run_batch(videos, content, out, progress=lambda s: None)
     first = sorted(fake["apply"])
@@ -206,9 +178,9 @@ def test_a_batch_with_its_output_inside_the_content_never_restyles_its_results(t
 
 
 def test_apply_from_a_folder_into_a_subfolder_does_not_take_its_results_as_clips(tmp_path, monkeypatch):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     lib = tmp_path / "lib"
-    _clip(lib / "walk.bvh")
+    write_clip(lib / "walk.bvh")
     (tmp_path / "s.v2s").write_text("s")
     for _ in range(2):
         assert main(["apply", str(tmp_path / "s.v2s"), str(lib), "-o", str(lib / "styled")]) == 0
@@ -217,7 +189,7 @@ def test_apply_from_a_folder_into_a_subfolder_does_not_take_its_results_as_clips
 
 # 5. A shared output folder cannot make a run write through a planted symlink.
 def test_a_symlink_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp_path, fake, capsys):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
     victim = tmp_path / "victim.txt"
@@ -239,7 +211,7 @@ def test_a_symlink_planted_at_the_lock_is_refused_and_its_target_unchanged(tmp_p
 
 
 def test_a_result_folder_planted_as_a_symlink_is_refused(tmp_path, fake):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out, elsewhere = tmp_path / "out", tmp_path / "elsewhere"
     out.mkdir()
     elsewhere.mkdir()
@@ -257,9 +229,9 @@ def test_a_result_folder_planted_as_a_symlink_is_refused(tmp_path, fake):
 
 
 def test_apply_does_not_write_through_a_link_planted_in_its_output_folder(tmp_path, monkeypatch, capsys):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     lib, out, elsewhere = tmp_path / "lib", tmp_path / "out", tmp_path / "elsewhere"
-    _clip(lib / "sub" / "walk.bvh")
+    write_clip(lib / "sub" / "walk.bvh")
     elsewhere.mkdir()
     (elsewhere / "walk.bvh").write_text("the user's clip")
     out.mkdir()
@@ -271,7 +243,7 @@ def test_apply_does_not_write_through_a_link_planted_in_its_output_folder(tmp_pa
 
 
 def test_links_planted_at_the_index_and_report_are_replaced_not_written_through(tmp_path, fake):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
     victims = {name: tmp_path / f"victim_{name}" for name in ("index.html", "report.json")}
@@ -284,27 +256,27 @@ def test_links_planted_at_the_index_and_report_are_replaced_not_written_through(
 
 
 def test_the_users_clips_in_an_output_folder_inside_the_input_are_not_overwritten(tmp_path, monkeypatch, fake, capsys):
-    _fake_apply(monkeypatch)
+    fake_apply(monkeypatch)
     lib = tmp_path / "lib"
-    _clip(lib / "walk.bvh")
-    _clip(lib / "sub" / "walk.bvh")  # the user's, in what -o names: left out as content, yet never overwritten
+    write_clip(lib / "walk.bvh")
+    write_clip(lib / "sub" / "walk.bvh")  # the user's, in what -o names: left out as content, yet never overwritten
     (tmp_path / "s.v2s").write_text("s")
-    before = _snapshot(tmp_path)
+    before = snapshot_tree(tmp_path)
     assert main(["apply", str(tmp_path / "s.v2s"), str(lib), "-o", str(lib / "sub")]) == 1
-    assert "is a clip in the input folder" in capsys.readouterr().err and _snapshot(tmp_path) == before
+    assert "is a clip in the input folder" in capsys.readouterr().err and snapshot_tree(tmp_path) == before
     videos = tmp_path / "videos"
     videos.mkdir()
     (videos / "old.mp4").write_bytes(b"video")
-    _clip(lib / "res" / "old" / "walk.bvh")  # where the batch would put lib/walk.bvh's result for old.mp4
-    before = _snapshot(tmp_path)
+    write_clip(lib / "res" / "old" / "walk.bvh")  # where the batch would put lib/walk.bvh's result for old.mp4
+    before = snapshot_tree(tmp_path)
     with pytest.raises(ValueError, match="is a clip in the --content folder"):
         batch.run_batch(videos, lib, lib / "res", progress=lambda s: None)
-    assert _snapshot(tmp_path) == before and fake["learn"] == []
+    assert snapshot_tree(tmp_path) == before and fake["learn"] == []
 
 
 def test_runs_into_nested_folders_do_not_interleave(tmp_path, monkeypatch, fake, capsys):
-    _fake_apply(monkeypatch)
-    clip, out = _clip(tmp_path / "in" / "walk.bvh"), tmp_path / "out"
+    fake_apply(monkeypatch)
+    clip, out = write_clip(tmp_path / "in" / "walk.bvh"), tmp_path / "out"
     (tmp_path / "s.v2s").write_text("s")
     with batch.folder_lock(out, "batch"):  # a batch writing OUT: an apply into OUT/sub is refused
         assert main(["apply", str(tmp_path / "s.v2s"), str(clip), "-o", str(out / "sub")]) == 1
@@ -312,7 +284,7 @@ def test_runs_into_nested_folders_do_not_interleave(tmp_path, monkeypatch, fake,
     assert not (out / "sub" / "walk.bvh").exists()
     with batch.folder_lock(out / "old", "apply"):  # an apply writing OUT/old: a batch into OUT is refused before its sweep
         stale = temp_beside(out / "old" / "walk.bvh")  # the apply's file in progress
-        videos, content = _library(tmp_path)
+        videos, content = make_library(tmp_path)
         with pytest.raises(RuntimeError, match="another apply is writing in"):
             batch.run_batch(videos, content, out, progress=lambda s: None)
         assert stale.exists() and fake["learn"] == []

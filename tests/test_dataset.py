@@ -9,7 +9,7 @@ from safetensors.torch import load_file
 from motioncore.bvh import BvhLayout, format_bvh
 from motioncore.representation import FEATURES
 from motioncore.retarget import from_canonical, make_rig
-from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
+from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
 from transfer.captions import caption
 from transfer.dataset import MotionDataset, build_dataset
 
@@ -31,6 +31,7 @@ def _fake_bandai(path, contents=("walk", "wave-left-hand"), styles=("normal", "e
                     tar.addfile(info, io.BytesIO(data))
 
 
+@pytest.mark.slow
 def test_build_dataset_from_archive(tmp_path):
     archive = tmp_path / "bandai2.tar.xz"
     _fake_bandai(archive)
@@ -59,6 +60,7 @@ def test_build_dataset_from_archive(tmp_path):
     assert abs(float(ds.standardize(ds.features).mean())) < 0.5
 
 
+@pytest.mark.slow
 def test_split_is_reproducible(tmp_path):
     archive = tmp_path / "bandai2.tar.xz"
     _fake_bandai(archive, contents=("run",), styles=("active",), per_cell=10)

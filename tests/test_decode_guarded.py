@@ -6,7 +6,7 @@ from motioncore import quat
 from motioncore.ik_fit import decode_guarded, limb_chains
 from motioncore.representation import FEATURES, decode, encode
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 SK = CANONICAL.skeleton
 

@@ -1,14 +1,14 @@
-"""benchmarks/demo_still.py's measure of a stoop: known values on a tilted rest pose."""
+"""The measure of a stoop benchmarks/demo_still.py reports (evaluation.metrics.trunk_lean): known values on a tilted rest pose."""
 import math
 
 import pytest
 import torch
 
-from benchmarks.demo_still import trunk_lean
+from evaluation.metrics import trunk_lean
 from motioncore import quat
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 SK = CANONICAL.skeleton
 

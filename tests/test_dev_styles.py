@@ -39,6 +39,7 @@ def clips():
     return out
 
 
+@pytest.mark.slow
 def test_judges_leave_the_examples_out_and_read_real_clips(clips):
     judges = fit_judges(clips)
     assert judges.loo_style > 0.9 and judges.loo_action > 0.9

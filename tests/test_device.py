@@ -92,6 +92,7 @@ def test_ray_tasks_ask_for_a_gpu_only_for_cuda(no_gpu):
         task_device("gpu", 1)
 
 
+@pytest.mark.slow
 def test_the_method_keeps_its_tensors_on_the_models_device():
     """The loops on the meta device (shapes only): a tensor made on the CPU and mixed in is an error there, as
     it would be on a GPU. CPU noise moved to the device, CPU text embeddings and a CPU clip are taken in."""
@@ -125,6 +126,7 @@ def test_the_method_keeps_its_tensors_on_the_models_device():
     assert reconstruction_loss(style.train(), DiffusionScheduler(), window, window, LearnConfig(), gen).device == meta
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (SHIPPED / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 def test_device_cpu_and_auto_give_the_default_result(no_gpu, tmp_path):
     from transfer.bundle import load_models

@@ -4,7 +4,6 @@ from pathlib import Path
 import pytest
 import torch
 
-from evaluation.classifiers import ClassifierConfig, MotionClassifier
 from evaluation.protocol import (
     format_table,
     identity_transfer,
@@ -14,9 +13,9 @@ from evaluation.protocol import (
 )
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
+from tests.helpers import random_classifier
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.checkpoints import save_model
 from transfer.dataset import ClipRecord, MotionDataset
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
@@ -69,17 +68,10 @@ def test_protocol_selection_is_seeded():
         select_protocol([r for r in recs if r.split != "test"])
 
 
-def _random_classifier(path: Path, target: str, classes: list[str]) -> Path:
-    torch.manual_seed(len(classes))
-    model = MotionClassifier(ClassifierConfig(target=target, classes=classes, channels=[8, 8], strides=[2, 1]))
-    save_model(model.eval(), model.config, path)
-    return path
-
-
 def test_run_protocol_on_a_tiny_cache(tmp_path):
     cache = write_synthetic_cache(tmp_path / "cache")
-    content = _random_classifier(tmp_path / "content.safetensors", "content", list(BANDAI2_CONTENTS))
-    style = _random_classifier(tmp_path / "style.safetensors", "style", list(STYLES))
+    content = random_classifier(tmp_path / "content.safetensors", "content", list(BANDAI2_CONTENTS))
+    style = random_classifier(tmp_path / "style.safetensors", "style", list(STYLES))
     calls = []
 
     def noisy(c, s, style_label, content_label):
@@ -157,7 +149,7 @@ def test_unseen_protocol_takes_neutral_content_to_the_held_out_styles():
 def test_limb_stray_is_the_distance_off_the_content_to_example_segment():
     from evaluation.metrics import LIMBS, limb_places, limb_stray
     from motioncore.representation import encode
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     content = encode(random_motion(seconds=2, seed=1))
     example = encode(random_motion(seconds=3, seed=2))

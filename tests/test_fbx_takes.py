@@ -4,7 +4,10 @@ import json
 import subprocess
 from pathlib import Path
 
-from tests.test_interchange import corpus_bvh, needs_blender, zero_style
+import pytest
+
+from testkit.clips import corpus_bvh, zero_style
+from tests.helpers import needs_blender
 from video2style import interchange
 from video2style.cli import main
 from video2style.interchange import Converter, blender_command
@@ -34,6 +37,7 @@ def _resave(src: Path, out: Path) -> Path:
     return out
 
 
+@pytest.mark.slow
 @needs_blender
 def test_an_fbx_result_keeps_its_take_name_and_about_its_size(tmp_path):
     with Converter() as conv:

@@ -1,4 +1,4 @@
-"""Automatic humanoid mapping on rigs in many tools' conventions (tests/rig_corpus.py) and on the real files."""
+"""Automatic humanoid mapping on rigs in many tools' conventions (testkit/rig_corpus.py) and on the real files."""
 from pathlib import Path
 
 import pytest
@@ -9,8 +9,8 @@ from motioncore.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from motioncore.humanoid import NotHumanoidError, find_humanoid, name_side
 from motioncore.motion import Motion
 from motioncore.retarget import RetargetError, from_canonical, make_rig, to_canonical
-from tests.helpers import random_motion
-from tests.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, TWO_ROOTS_BVH, case
+from testkit.motions import random_motion
+from testkit.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, TWO_ROOTS_BVH, case
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 ALL = CASES + DISPUTED_CASES

@@ -1,5 +1,5 @@
-"""Automatic humanoid mapping on clips that never show a standing figure (tests/rig_poses.py), in every
-convention of tests/rig_corpus.py; the non-humanoids stay refused; errors name the ambiguous roles."""
+"""Automatic humanoid mapping on clips that never show a standing figure (testkit/rig_poses.py), in every
+convention of testkit/rig_corpus.py; the non-humanoids stay refused; errors name the ambiguous roles."""
 import pytest
 import torch
 
@@ -8,9 +8,9 @@ from motioncore.humanoid import NotHumanoidError, find_humanoid, up_axis
 from motioncore.kinematics import fk
 from motioncore.retarget import RetargetError, make_rig, up_basis
 from motioncore.skeleton import Skeleton
-from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton
-from tests.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, case, rest_motion
-from tests.rig_poses import POSES, posed_motion
+from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton
+from testkit.rig_corpus import CASES, DISPUTED_CASES, NON_HUMANOID, case, rest_motion
+from testkit.rig_poses import POSES, posed_motion
 
 ALL = CASES + DISPUTED_CASES
 UP = {"Y": "+Y", "Z": "+Z"}
@@ -48,6 +48,7 @@ def test_posed_clips_hold_their_pose(pose):
         assert float((at["Hand_R"][:, 1] - at["Head"][:, 1]).min()) > 0.0  # one hand above the head
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c", ALL, ids=lambda c: c.name)
 def test_every_role_found_in_every_pose_when_the_frames_decide(c):
     """The rest pose lies along X (Bandai's), so the pose is read from frames: the geometry must decide."""

@@ -1,168 +1,15 @@
 """FBX and glTF in and out (video2style.interchange): clips built with Blender from the rig corpus."""
-import copy
-import functools
-import json
-import math
-import subprocess
 from pathlib import Path
 
 import pytest
 import torch
 
+from testkit.clips import corpus_bvh, positions, run_script, twist_deg, zero_style
+from tests.helpers import needs_blender
 from video2style import interchange
-from video2style.interchange import Converter, blender_command
+from video2style.interchange import Converter
 
 # Blender-side helper for these tests: build a skinned mesh onto a file's armature, or report what a file holds.
-SCRIPT = r'''
-import importlib.util, json, sys
-import bpy
-args = json.loads(sys.argv[sys.argv.index("--") + 1])
-spec = importlib.util.spec_from_file_location("blender_io", args["blender_io"])
-io = importlib.util.module_from_spec(spec); spec.loader.exec_module(io)
-if args["op"] == "odd":  # files video2style must refuse, or choose in
-    out = args["out"]
-    io._clear()
-    bpy.ops.mesh.primitive_cube_add()
-    io._export(out + "/mesh_only.glb", "glb")
-    io._clear()
-    io._import(args["path"])
-    arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
-    arm.animation_data.action = None
-    for a in list(bpy.data.actions):
-        bpy.data.actions.remove(a)
-    bpy.ops.export_scene.fbx(filepath=out + "/still.fbx", add_leaf_bones=False, bake_anim=False)
-    io._clear()
-    io._import(args["path"])
-    arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
-    second = arm.animation_data.action.copy()
-    second.name = "Second"
-    for fc in second.fcurves:  # a different take: every key a frame later
-        for kp in fc.keyframe_points:
-            kp.co.x += 1
-    track = arm.animation_data.nla_tracks.new()
-    track.strips.new("Second", 1, second)
-    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 0, 60
-    bpy.ops.export_scene.fbx(filepath=out + "/takes.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
-                             bake_anim_use_all_actions=True)
-    io._clear()
-    io._import(args["path"])
-    io._import(args["path"])
-    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 60
-    bpy.ops.export_scene.fbx(filepath=out + "/two.fbx", add_leaf_bones=False, bake_anim_use_nla_strips=False,
-                             bake_anim_use_all_actions=False)
-    print("RESULT" + json.dumps({"ok": True}))
-    sys.exit(0)
-arm, act, *_ = io._load(args["path"], None, None)
-if args["op"] == "skin":  # a box per bone, weighted to the bone and (top half) shared with its parent
-    verts, faces, owners = [], [], []
-    for b in arm.data.bones:
-        c = (b.head_local + b.tail_local) / 2
-        r = max(b.length * 0.15, 1e-3)
-        base = len(verts)
-        for i in range(8):
-            verts.append((c.x + (r if i & 1 else -r), c.y + (r if i & 2 else -r), c.z + (r if i & 4 else -r)))
-            owners.append((b.name, b.parent.name if (b.parent and i & 4) else None))
-        faces += [(base + a, base + b_, base + c_, base + d) for a, b_, c_, d in
-                  ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))]
-    me = bpy.data.meshes.new("Body")
-    me.from_pydata(verts, [], faces)
-    mat = bpy.data.materials.new("Skin")
-    mat.diffuse_color = (0.8, 0.5, 0.4, 1.0)
-    me.materials.append(mat)
-    ob = bpy.data.objects.new("Body", me)
-    bpy.context.scene.collection.objects.link(ob)
-    ob.parent = arm
-    ob.matrix_parent_inverse = arm.matrix_world.inverted()
-    ob.modifiers.new("Armature", "ARMATURE").object = arm
-    for v, (own, parent) in enumerate(owners):
-        g = ob.vertex_groups.get(own) or ob.vertex_groups.new(name=own)
-        g.add([v], 0.5 if parent else 1.0, "REPLACE")
-        if parent:
-            (ob.vertex_groups.get(parent) or ob.vertex_groups.new(name=parent)).add([v], 0.5, "REPLACE")
-    s = bpy.context.scene
-    s.frame_start, s.frame_end = io._frame_range(act)
-    io._export(args["out"], args["format"])
-    print("RESULT" + json.dumps({"ok": True}))
-else:  # what the file holds
-    meshes = {}
-    for ob in bpy.data.objects:
-        if ob.type != "MESH":
-            continue
-        # glTF splits vertices per face corner on import: count distinct points, each point's weights once
-        seen = {(tuple(round(c, 5) for c in v.co), ob.vertex_groups[g.group].name, round(g.weight, 4))
-                for v in ob.data.vertices for g in v.groups}
-        w = {}
-        for _, name, weight in seen:
-            w[name] = round(w.get(name, 0.0) + weight, 3)
-        points = {tuple(round(c, 5) for c in v.co) for v in ob.data.vertices}
-        meshes[ob.name] = {"faces": len(ob.data.polygons), "verts": len(points), "weights": w,
-                           "materials": [m.name for m in ob.data.materials if m], "armature": ob.find_armature().name
-                           if ob.find_armature() else None}
-    s = bpy.context.scene
-    start, end = io._frame_range(act)
-    frames = list(range(start, end + 1, max(1, (end - start) // 12)))
-    poses = []
-    for f in frames:
-        s.frame_set(f)
-        poses.append({pb.name: [list(arm.matrix_world @ pb.head), list((arm.matrix_world @ pb.matrix).to_quaternion())]
-                      for pb in arm.pose.bones})
-    print("RESULT" + json.dumps({"bones": {b.name: [list(r) for r in b.matrix_local] for b in arm.data.bones},
-                                 "meshes": meshes, "fps": s.render.fps / s.render.fps_base, "range": [start, end],
-                                 "frames": frames, "poses": poses}))
-'''
-
-
-@functools.lru_cache(maxsize=1)
-def _blender_problem() -> str | None:
-    cmd = blender_command()
-    if cmd is None:
-        return "neither the bpy module nor a `blender` on PATH (pip install \"video2style[fbx]\" or apt install blender python3-numpy)"
-    if "--python" in cmd:  # blender -b: its own Python must have numpy
-        probe, env = [cmd[0], "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr", "import numpy"], \
-            interchange.blender_env()
-    else:
-        probe, env = [cmd[0], "-c", "import bpy, numpy"], None
-    proc = subprocess.run(probe, check=False, capture_output=True, text=True, timeout=120, env=env)
-    if proc.returncode != 0:
-        return "Blender's Python lacks numpy, which its FBX/glTF add-ons need (apt install python3-numpy)"
-    return None
-
-
-needs_blender = pytest.mark.skipif(_blender_problem() is not None, reason=f"no usable Blender: {_blender_problem()}")
-
-
-def run_script(op: str, path: Path, **extra) -> dict:
-    cmd = blender_command()
-    cmd = [*cmd[:-1], str(path.parent / "helper.py")]
-    (path.parent / "helper.py").write_text(SCRIPT)
-    args = json.dumps({"op": op, "path": str(path), "blender_io": str(interchange.SCRIPT), **extra})
-    env = None if "--python" not in cmd else interchange.blender_env()
-    proc = subprocess.run([*cmd, "--", args], check=False, capture_output=True, text=True, timeout=300, env=env)
-    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT")), None)
-    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
-    return json.loads(line[len("RESULT"):])
-
-
-def corpus_bvh(folder: Path, rig: str, seconds: float = 2.0) -> Path:
-    from motioncore.bvh import write_bvh
-    from motioncore.retarget import from_canonical, make_rig
-    from tests.helpers import random_motion
-    from tests.rig_corpus import case
-
-    c = case(rig)
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "walk.bvh"
-    write_bvh(path, from_canonical(random_motion(seconds=seconds, fps=30.0, seed=4, amplitude=0.3), make_rig(c.skeleton)),
-              c.layout)
-    return path
-
-
-def positions(bvh: Path) -> tuple[list[str], torch.Tensor, float]:
-    """Joint names, global positions (T, J, 3) in metres, fps."""
-    from motioncore.bvh import read_bvh
-
-    m, _ = read_bvh(bvh)
-    return list(m.skeleton.names), m.global_positions(), m.fps
 
 
 def worst_turn(a: Path, b: Path) -> float:
@@ -193,6 +40,7 @@ def converter():
         yield conv
 
 
+@pytest.mark.slow
 @needs_blender
 @pytest.mark.parametrize("fmt", ["fbx", "glb"])
 @pytest.mark.parametrize("rig", ["mixamo", "ue5", "rigify"])
@@ -215,35 +63,11 @@ def test_bvh_to_file_to_bvh_within_a_millimetre(tmp_path, converter, rig, fmt):
                    for x, y in zip(ra, rb)) < 1e-4
 
 
-def twist_deg(qa: list[float], qb: list[float]) -> float:
-    """Swing-twist split of the rotation from ``qa`` to ``qb`` (world wxyz) in ``qa``'s frame; the twist about Y."""
-    from motioncore import quat
-
-    d = quat.mul(quat.inv(torch.tensor(qa, dtype=torch.float64)), torch.tensor(qb, dtype=torch.float64))
-    w, y = float(d[0]), float(d[2])
-    return math.degrees(2 * math.acos(min(1.0, abs(w) / max(math.hypot(w, y), 1e-12))))
-
-
-def zero_style(tmp_path: Path, scale: float = 0.0) -> Path:
-    """A style file of zero adapters (the result is the content, feet cleaned), or of random ones ``scale`` large
-    (a style that changes the motion)."""
-    from transfer.bundle import load_models
-    from transfer.lora import add_lora, lora_state
-    from transfer.style_file import Style
-
-    model = copy.deepcopy(load_models().prior)
-    add_lora(model, rank=8)
-    gen = torch.Generator().manual_seed(0)
-    tensors = {k: torch.randn(v.shape, generator=gen) * scale for k, v in lora_state(model).items()}
-    style = tmp_path / f"style{scale:g}.v2s"
-    Style(tensors, {"style": "zero" if scale == 0 else "random", "rank": 8}).save(style)
-    return style
-
-
+@pytest.mark.slow
 @needs_blender
 @pytest.mark.parametrize("rig,fmt", [("mixamo", "fbx"), ("ue5", "glb")])
 def test_apply_writes_onto_the_files_own_armature_and_mesh(tmp_path, rig, fmt):
-    from tests.rig_corpus import case
+    from testkit.rig_corpus import case
     from video2style.cli import main
 
     bvh = corpus_bvh(tmp_path / "src", rig)
@@ -271,6 +95,7 @@ def test_apply_writes_onto_the_files_own_armature_and_mesh(tmp_path, rig, fmt):
     assert twists[int(0.99 * (len(twists) - 1))] <= 15.0 and twists[-1] < 150.0
 
 
+@pytest.mark.slow
 @needs_blender
 def test_format_options_and_a_bvh_result_from_fbx(tmp_path, converter):
     from video2style.cli import main
@@ -302,6 +127,7 @@ def test_without_blender_one_line_names_the_file_and_both_routes(tmp_path, monke
     assert not list((tmp_path / "out").glob("walk*"))
 
 
+@pytest.mark.slow
 def test_a_blender_that_never_answers_is_stopped_with_one_line(tmp_path, monkeypatch):
     import sys
     import time
@@ -316,6 +142,7 @@ def test_a_blender_that_never_answers_is_stopped_with_one_line(tmp_path, monkeyp
     assert blender._proc is None  # ended, not left running
 
 
+@pytest.mark.slow
 @needs_blender
 def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_path, converter, capsys):
     from video2style.cli import main
@@ -341,6 +168,7 @@ def test_files_without_an_armature_or_animation_or_with_two_are_one_line(tmp_pat
     assert len(err) == 1 and "no action 'nothing'" in err[0] and "Second" in err[0]
 
 
+@pytest.mark.slow
 @needs_blender
 def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
     from video2style.cli import main
@@ -355,6 +183,7 @@ def test_preview_and_learn_take_fbx_and_glb(tmp_path, converter):
     assert (tmp_path / "s.v2s").is_file()
 
 
+@pytest.mark.slow
 @needs_blender
 def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monkeypatch):
     import shutil
@@ -380,6 +209,7 @@ def test_batch_styles_fbx_content_into_fbx_and_resumes(tmp_path, converter, monk
     assert [r["status"] for r in again.rows] == ["skipped (done)"] * 2
 
 
+@pytest.mark.slow
 @needs_blender
 def test_a_failed_write_back_leaves_none_of_the_clips_outputs(tmp_path, converter, monkeypatch, capsys):
     from video2style.cli import main
@@ -406,10 +236,11 @@ def test_folders_of_clips_leave_results_out(tmp_path):
         ["a/walk.FBX", "b/run.glb", "c/x.gltf"]
 
 
+@pytest.mark.slow
 @needs_blender
 def test_errors_after_reading_name_the_users_file(tmp_path, converter, capsys):
     from motioncore.bvh import BvhLayout, write_bvh
-    from tests.rig_corpus import NON_HUMANOID, rest_motion
+    from testkit.rig_corpus import NON_HUMANOID, rest_motion
     from video2style.cli import main
 
     dog = NON_HUMANOID["quadruped"]

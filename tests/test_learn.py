@@ -1,47 +1,15 @@
 """Style learning (Hu et al. §3.2-3.5) with toy models: a tiny prior and motion encoder, a hashed text encoder."""
 from __future__ import annotations
 
-import hashlib
-
 import pytest
 import torch
 
 from motioncore.representation import FEATURES
-from tests.synthetic_cache import write_synthetic_cache
-from transfer.bundle import MethodBundle
+from tests.helpers import toy_learn_config
 from transfer.dataset import MotionDataset
-from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.learn import learn_style, partial_reason
-from transfer.motion_encoder import MotionEncoder, MotionEncoderConfig
-from transfer.style_config import ApplyConfig, LearnConfig
+from transfer.style_config import ApplyConfig
 from transfer.style_file import style_model
-
-
-class HashedText:
-    """Deterministic unit vectors per text: a stand-in for the sentence encoder."""
-
-    def encode(self, texts):
-        out = []
-        for t in texts:
-            seed = int(hashlib.sha1(t.encode()).hexdigest()[:8], 16)
-            v = torch.randn(384, generator=torch.Generator().manual_seed(seed))
-            out.append(v / v.norm())
-        return torch.stack(out)
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    torch.manual_seed(0)
-    prior = Denoiser(DenoiserConfig(width=32, layers=2, heads=2, ff=64, dropout=0.0)).eval()
-    encoder = MotionEncoder(MotionEncoderConfig(width=32, layers=1, heads=2, ff=64, dropout=0.0)).eval()
-    for p in encoder.parameters():
-        p.requires_grad_(False)
-    cache = write_synthetic_cache(tmp_path_factory.mktemp("cache"))
-    return MethodBundle(prior, motion_encoder=encoder, text_encoder=HashedText()), cache
-
-
-def _config(**kw):
-    return LearnConfig(iterations=4, pair_ddim_steps=3, transfer_ddim_steps=2, content_batch=2, window=24, **kw)
 
 
 def test_learn_style_trains_only_adapters_and_records_metadata(toys):
@@ -50,7 +18,7 @@ def test_learn_style_trains_only_adapters_and_records_metadata(toys):
     data = MotionDataset(cache, "train")
     example = data.clip(0)
     before = {k: v.clone() for k, v in prior.state_dict().items()}
-    style, info = learn_style(bundle, data, example, "elderly", "walk", _config())
+    style, info = learn_style(bundle, data, example, "elderly", "walk", toy_learn_config())
     assert all(torch.equal(before[k], v) for k, v in prior.state_dict().items())  # the prior is untouched
     assert style.meta["iterations"] == 4 and style.meta["content"] == "a person walks"
     assert style.meta["stopped_by"] == "iterations" and len(style.meta["loss_rec"]) == len(style.meta["loss_s"]) == 4
@@ -68,13 +36,13 @@ def test_learn_style_trains_only_adapters_and_records_metadata(toys):
 def test_learn_style_is_seeded_and_ablation_skips_the_pair(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    a, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
-    b, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    a, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config())
+    b, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config())
     assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
-    _, info = learn_style(bundle, data, data.clip(1), "old", "walk", _config(pair_generation=False))
+    _, info = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config(pair_generation=False))
     assert torch.equal(info["pair"], data.clip(1))
     with pytest.raises(ValueError, match="expected an example"):
-        learn_style(bundle, data, torch.zeros(10, 5), "old", "walk", _config())
+        learn_style(bundle, data, torch.zeros(10, 5), "old", "walk", toy_learn_config())
 
 
 def test_evaluation_method_learns_once_per_example(toys):
@@ -82,7 +50,7 @@ def test_evaluation_method_learns_once_per_example(toys):
 
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    method = OnTheFly(bundle, data, _config(), seed=0)
+    method = OnTheFly(bundle, data, toy_learn_config(), seed=0)
     test = MotionDataset(cache, "test")
     style, content = test.clip(0), test.clip(3)
     out1 = method(content, style, "elderly", "walk")
@@ -99,14 +67,14 @@ def test_learning_budget_is_iterations_and_a_time_cap_is_reported(toys, monkeypa
     # a busy machine: every clock reading is 10 s later than the last; without a cap it changes nothing
     clock = iter(range(0, 10**6, 10))
     monkeypatch.setattr("transfer.learn.time.time", lambda: float(next(clock)))
-    slow, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    slow, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config())
     monkeypatch.undo()
-    quick, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config())
+    quick, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config())
     assert slow.meta["iterations"] == quick.meta["iterations"] == 4
     assert all(torch.equal(slow.adapters[k], quick.adapters[k]) for k in quick.adapters)
     assert partial_reason(quick.meta, min_iterations=4) is None
     assert "only 4 fine-tuning iterations, fewer than the 5" in partial_reason(quick.meta, min_iterations=5)
-    capped, _ = learn_style(bundle, data, data.clip(1), "old", "walk", _config(max_seconds=1e-9))
+    capped, _ = learn_style(bundle, data, data.clip(1), "old", "walk", toy_learn_config(max_seconds=1e-9))
     assert capped.meta["iterations"] == 0 and capped.meta["stopped_by"] == "time"
     assert "cut short by the time cap" in partial_reason(capped.meta, min_iterations=0)
 
@@ -119,9 +87,9 @@ def test_variants_that_learn_alike_share_their_styles(toys):
     bundle, cache = toys
     data, test = MotionDataset(cache, "train"), MotionDataset(cache, "test")
     shared = {}
-    regen = OnTheFly(bundle, data, _config(), shared=shared)
-    diff = OnTheFly(bundle, data, _config(), ApplyConfig(apply_mode="difference"), strength=0.0, shared=shared)
-    other = OnTheFly(bundle, data, replace(_config(), lambda_p=0.0), shared=shared)
+    regen = OnTheFly(bundle, data, toy_learn_config(), shared=shared)
+    diff = OnTheFly(bundle, data, toy_learn_config(), ApplyConfig(apply_mode="difference"), strength=0.0, shared=shared)
+    other = OnTheFly(bundle, data, replace(toy_learn_config(), lambda_p=0.0), shared=shared)
     content, style = test.clip(3), test.clip(0)
     regen(content, style, "elderly", "walk")
     out = diff(content, style, "elderly", "walk")
@@ -137,8 +105,8 @@ def test_variants_that_learn_alike_share_their_styles(toys):
 def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    plain, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_dir=0.0))
-    other, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(**kw))
+    plain, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", toy_learn_config(lambda_dir=0.0))
+    other, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", toy_learn_config(**kw))
     assert all(torch.isfinite(v).all() for v in other.adapters.values())
     assert any(not torch.equal(plain.adapters[k], other.adapters[k]) for k in plain.adapters)
     assert other.meta["config"]["lambda_stat"] == kw.get("lambda_stat", 0.0)
@@ -147,16 +115,16 @@ def test_word_free_signals_learn_and_change_the_adapters(toys, kw):
 def test_words_matter_only_through_the_semantic_loss(toys):
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    a, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
-    b, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.0, lambda_stat=1.0))
+    a, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", toy_learn_config(lambda_s=0.0, lambda_stat=1.0))
+    b, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", toy_learn_config(lambda_s=0.0, lambda_stat=1.0))
     assert all(torch.equal(a.adapters[k], b.adapters[k]) for k in a.adapters)
-    c, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", _config())  # the defaults: word-free
-    d, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config())
+    c, _ = learn_style(bundle, data, data.clip(1), "proud", "walk", toy_learn_config())  # the defaults: word-free
+    d, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", toy_learn_config())
     assert all(torch.equal(c.adapters[k], d.adapters[k]) for k in c.adapters)
-    e, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", _config(lambda_s=0.1))
+    e, _ = learn_style(bundle, data, data.clip(1), "qwxz", "walk", toy_learn_config(lambda_s=0.1))
     assert any(not torch.equal(d.adapters[k], e.adapters[k]) for k in d.adapters)  # L_s on: the words enter
     with pytest.raises(ValueError, match="expected stat_reference"):
-        learn_style(bundle, data, data.clip(1), "x", "walk", _config(lambda_stat=1.0, stat_reference="odd"))
+        learn_style(bundle, data, data.clip(1), "x", "walk", toy_learn_config(lambda_stat=1.0, stat_reference="odd"))
 
 
 def test_neutral_pair_is_the_one_learning_draws(toys):
@@ -164,9 +132,9 @@ def test_neutral_pair_is_the_one_learning_draws(toys):
 
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    _, info = learn_style(bundle, data, data.clip(2), "old", "walk", _config(seed=3))
-    assert torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=3), "walk", dataset=data), info["pair"])
-    assert not torch.equal(neutral_pair(bundle, data.clip(2), _config(seed=4), "walk", dataset=data), info["pair"])
+    _, info = learn_style(bundle, data, data.clip(2), "old", "walk", toy_learn_config(seed=3))
+    assert torch.equal(neutral_pair(bundle, data.clip(2), toy_learn_config(seed=3), "walk", dataset=data), info["pair"])
+    assert not torch.equal(neutral_pair(bundle, data.clip(2), toy_learn_config(seed=4), "walk", dataset=data), info["pair"])
 
 
 def test_a_long_example_gets_its_pair_drawn_in_windows_as_long_as_the_priors(toys):
@@ -183,7 +151,7 @@ def test_a_long_example_gets_its_pair_drawn_in_windows_as_long_as_the_priors(toy
     try:
         for windowed in (True, False):
             lengths.clear()
-            config = _config(seed=1, pair_between=False, pair_windowed=windowed)
+            config = toy_learn_config(seed=1, pair_between=False, pair_windowed=windowed)
             pair = neutral_pair(bundle, example, config, "walk")
             assert pair.shape == example.shape and torch.isfinite(pair).all()
             assert set(lengths) == ({config.window} if windowed else {70})
@@ -200,8 +168,8 @@ def test_a_bounded_pair_is_the_pair_learning_uses_and_neutral_pair_draws(toys):
 
     bundle, cache = toys
     data = MotionDataset(cache, "train")
-    example, config = data.clip(2), _config(seed=3, pair_between=True)
-    _, drawn = learn_style(bundle, data, example, "old", "walk", _config(seed=3, pair_between=False))
+    example, config = data.clip(2), toy_learn_config(seed=3, pair_between=True)
+    _, drawn = learn_style(bundle, data, example, "old", "walk", toy_learn_config(seed=3, pair_between=False))
     _, info = learn_style(bundle, data, example, "old", "walk", config)
     assert torch.equal(neutral_pair(bundle, example, config, "walk", dataset=data), info["pair"])
     neutral = [data.clip(i) for i, r in enumerate(data.records) if r.style == "normal" and r.caption == "a person walks"]

@@ -13,7 +13,7 @@ from motioncore.limbs import (
 )
 from motioncore.representation import encode
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 HAND_L = LIMBS.index("Hand_L")
 
@@ -98,7 +98,7 @@ def test_shapes_are_validated():
         nearest_on_segment(places, places[:2], places)
     with pytest.raises(ValueError, match="expected raw features"):
         limb_places(encode(motion)[:, :10])
-    from tests.helpers import bandai_like_skeleton
+    from testkit.motions import bandai_like_skeleton
 
     other = bandai_like_skeleton()
     with pytest.raises(ValueError, match="canonical skeleton"):

@@ -9,7 +9,7 @@ import torch
 
 import transfer.apply as apply_mod
 from motioncore.representation import FEATURES
-from tests.test_style import _trained_style, tiny_denoiser
+from tests.helpers import tiny_denoiser, trained_style
 from transfer.bundle import MethodBundle
 from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
@@ -53,12 +53,13 @@ def whole_list_apply(model, prior, x, learned, config, step, seed, neutral_text=
     return blend_whole_list(done, starts, x.shape[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("frames", [50, 80, 401])
 @pytest.mark.parametrize("mode", ["difference", "regenerate"])
 def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):
     monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 401 frames: 7 windows in 4 batches
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     x = torch.randn(frames, FEATURES.dim, generator=torch.Generator().manual_seed(frames))
     learned, config = LearnConfig(), ApplyConfig(apply_mode=mode, neutralize_step=200)
     text = torch.randn(1, 384, generator=torch.Generator().manual_seed(1))
@@ -102,7 +103,7 @@ def test_window_stream_fed_in_pieces_blends_as_crossfade(pieces):
 def fit_inputs(frames: int = 23):
     """Targets (T, J, 3) from a random canonical motion, and a head rotation per frame (a leaf rotation)."""
     from motioncore.skeleton import CANONICAL
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     motion = random_motion(frames / 20.0, 20.0, seed=5)
     head = motion.lrot[:, CANONICAL.skeleton.index("Head")]

@@ -13,7 +13,7 @@ import transfer.apply as apply_mod
 from motioncore.bvh import BvhError, read_bvh, write_bvh
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.motion import Motion, resample, resample_span
-from tests.helpers import cmu_like_skeleton
+from testkit.motions import cmu_like_skeleton
 from transfer.shipped import SHIPPED as WEIGHTS
 from video2style import long_takes
 
@@ -65,14 +65,19 @@ def test_span_reader_refuses_a_wrong_frame_count_and_bad_numbers(tmp_path):
     short.write_text(text.replace("Frames: 20", "Frames: 21"))
     with pytest.raises(BvhError, match="short.bvh: declared 21 frames, found 20"):
         BvhFrames(short)
-    bad = tmp_path / "bad.bvh"
     rows = text.splitlines()
     rows[-3] = rows[-3].replace(rows[-3].split()[4], "abc", 1)
+    rows.insert(-5, "   ")  # a blank line among the frames: the line numbers count it
+    bad = tmp_path / "bad.bvh"
     bad.write_text("\n".join(rows) + "\n")
     frames = BvhFrames(bad)
     assert torch.isfinite(frames[0:10].lrot).all()
-    with pytest.raises(BvhError, match="bad.bvh: frames 11-20"):
-        frames[10:20]
+    with pytest.raises(BvhError, match=f"bad.bvh:{len(rows) - 2}: expected numbers in the frame data$"):
+        frames[10:20]  # the file's line, not the span's frames
+    rows[-3] = " ".join(rows[-4].split()[:-1])  # a frame a number short
+    bad.write_text("\n".join(rows) + "\n")
+    with pytest.raises(BvhError, match=f"bad.bvh:{len(rows) - 2}: expected .* values per frame, got "):
+        BvhFrames(bad)[15:20]
 
 
 def test_span_resampling_equals_the_whole(tmp_path):
@@ -129,6 +134,7 @@ def style_and_model(tmp_path_factory):
     return style, style_model(load_models().prior, style)
 
 
+@pytest.mark.slow
 @shipped
 @pytest.mark.parametrize("neutralize", ["never", "always"])
 def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style_and_model, neutralize):
@@ -161,6 +167,7 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style
     assert Path(streamed["preview"]).is_file() and Path(streamed["player"]).is_file()
 
 
+@pytest.mark.slow
 @shipped
 def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_model):
     """One apply path (transfer.spans): a take streamed in one span, every guard on, is the whole-clip result."""
@@ -181,6 +188,7 @@ def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_mo
     assert gap < 0.0005, f"{100 * gap:.4f} cm"
 
 
+@pytest.mark.slow
 @shipped
 def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_model):
     from video2style.pipeline import apply_file
@@ -207,6 +215,7 @@ def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_mode
     assert len(calls) == 3 and (not out.exists() or list(out.iterdir()) == [])
 
 
+@pytest.mark.slow
 @shipped
 def test_a_tempo_keeps_the_whole_clip_path_and_says_so(tmp_path, monkeypatch, style_and_model):
     from video2style.pipeline import apply_file

@@ -14,7 +14,7 @@ from motioncore.kinematics import rest_positions
 from motioncore.representation import FEATURES, encode
 from motioncore.skating import foot_skating_ratio, skating_frames
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 
 def _samples_with_moments(n: int, mean: np.ndarray, cov: np.ndarray, seed: int) -> np.ndarray:

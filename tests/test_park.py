@@ -136,6 +136,7 @@ def test_windowed_long_clip_and_method(model):
     assert method(c[:50], torch.randn(30, D), "youthful", "walk").shape == (50, D)
 
 
+@pytest.mark.slow
 def test_train_park_resumes(tmp_path):
     from tests.synthetic_cache import write_synthetic_cache
 

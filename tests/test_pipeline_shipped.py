@@ -25,6 +25,7 @@ def one_thread():
     torch.set_num_threads(n)
 
 
+@pytest.mark.slow
 def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     monkeypatch.setenv("VIDEO2STYLE_DATA", str(tmp_path / "no-cache"))  # use the bundled content bank
     lines = []
@@ -53,6 +54,7 @@ def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     assert torch.isfinite(out.lrot).all()
 
 
+@pytest.mark.slow
 def test_learn_command_refuses_a_partial_style_in_one_line(tmp_path, monkeypatch, capsys):
     from video2style.cli import main
 

@@ -108,7 +108,7 @@ def test_positions_from_rotations_equal_the_position_channels_of_encoded_clips()
     """The FK consistency term is zero on real features: FK of the rotation channels and root height puts every
     joint where the position channels do (the facing frame, the root's ground point at the origin)."""
     from motioncore.representation import FEATURES, encode, positions_from_rotations
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     feats = encode(random_motion(seconds=2, seed=3))
     implied = positions_from_rotations(feats.double())
@@ -125,7 +125,7 @@ def test_derived_position_channels_leave_an_encoded_clip_as_it_was_and_replace_o
     """Text-to-motion's derivation (:func:`transfer.denoiser.derive_position_channels`) on normalised features: a real
     clip's channels already agree, so it comes back unchanged; a clip with moved position channels gets them back."""
     from motioncore.representation import FEATURES, encode
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
     from transfer.denoiser import derive_position_channels
 
     feats = encode(random_motion(seconds=2, seed=4))
@@ -143,7 +143,7 @@ def test_derived_position_channels_leave_an_encoded_clip_as_it_was_and_replace_o
 
 def test_fk_loss_is_zero_on_real_features_and_grows_with_a_bent_joint():
     from motioncore.representation import FEATURES, encode
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
     from transfer.prior import fk_loss
 
     x = encode(random_motion(seconds=1.5, seed=1))[None]
@@ -170,7 +170,7 @@ def test_feet_velocity_is_the_feet_travel_over_the_ground_in_the_facing_frame():
         positions_from_rotations,
     )
     from motioncore.skeleton import CANONICAL
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     feats = encode(random_motion(seconds=2, seed=4)).double()
     g = decode_positions(feats)[:, list(CANONICAL.feet)]
@@ -186,7 +186,7 @@ def test_feet_velocity_is_the_feet_travel_over_the_ground_in_the_facing_frame():
 
 def test_contact_loss_is_zero_for_planted_feet_and_grows_when_the_root_slides_under_them():
     from motioncore.representation import FEATURES, encode
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
     from transfer.prior import contact_loss
 
     m = random_motion(seconds=2, seed=1, amplitude=0.0)
@@ -209,7 +209,7 @@ def test_contact_loss_is_zero_for_planted_feet_and_grows_when_the_root_slides_un
 
 def test_contact_guide_plants_sliding_feet_clip_by_clip_and_leaves_planted_ones():
     from motioncore.representation import FEATURES, encode
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
     from transfer.prior import contact_guide, contact_loss
 
     m = random_motion(seconds=2, seed=1, amplitude=0.0)

@@ -7,7 +7,7 @@ from motioncore.bvh import BvhError, write_bvh
 from motioncore.render import Panel, render_frame, render_video
 from motioncore.retarget import from_canonical, make_rig
 from motioncore.skeleton import CANONICAL
-from tests.helpers import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
+from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
 from video2style.preview import preview_bvh_files
 
 SK = CANONICAL.skeleton

@@ -1,3 +1,4 @@
+import pytest
 import torch
 
 from motioncore import quat
@@ -11,7 +12,7 @@ from motioncore.representation import (
     foot_contacts,
 )
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 
 def _start(m):
@@ -74,9 +75,10 @@ def test_resample_keeps_duration_and_endpoints():
     assert torch.allclose(r.lpos[0], m.lpos[0]) and torch.allclose(r.lrot[0], m.lrot[0], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_encode_and_decode_a_chunk_at_a_time_give_the_same_numbers(monkeypatch):
     import motioncore.representation as rep
-    from tests.helpers import random_motion
+    from testkit.motions import random_motion
 
     m = random_motion(seconds=6.0, seed=3)
     f, d = rep.encode(m), rep.decode(rep.encode(m))

@@ -5,7 +5,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 from video2style.results_page import page, player_html, write_player_data
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -19,7 +19,7 @@ from motioncore.retarget import (
     to_canonical,
 )
 from motioncore.skeleton import CANONICAL, Skeleton
-from tests.helpers import (
+from testkit.motions import (
     CANONICAL_NAMES_MAP,
     CMU_LIKE_ROLES,
     bandai_like_skeleton,

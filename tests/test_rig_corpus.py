@@ -1,4 +1,4 @@
-"""Smoke tests of the synthetic rig corpus itself (tests/rig_corpus.py)."""
+"""Smoke tests of the synthetic rig corpus itself (testkit/rig_corpus.py)."""
 import re
 
 import pytest
@@ -7,7 +7,7 @@ import torch
 from motioncore.bvh import format_bvh, parse_bvh
 from motioncore.kinematics import rest_positions
 from motioncore.skeleton import Skeleton
-from tests.rig_corpus import (
+from testkit.rig_corpus import (
     CASES,
     DISPUTED_CASES,
     NON_HUMANOID,

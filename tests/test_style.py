@@ -5,19 +5,14 @@ from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bo
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from testkit.motions import random_motion
+from tests.helpers import tiny_denoiser, trained_style
 from transfer.apply import apply_style_features
 from transfer.bundle import MethodBundle
-from transfer.denoiser import Denoiser, DenoiserConfig
-from transfer.lora import LoRALinear, add_lora, lora_state, set_gain
+from transfer.lora import add_lora, lora_state, set_gain
 from transfer.style_config import ApplyConfig, LearnConfig, strength_to_step
 from transfer.style_file import Style, style_model
 from transfer.windows import crossfade, crossfade_overlap, window_starts
-
-
-def tiny_denoiser(seed=0):
-    torch.manual_seed(seed)
-    return Denoiser(DenoiserConfig(width=32, layers=2, heads=2, ff=64, dropout=0.0)).eval()
 
 
 def test_lora_starts_as_identity_and_only_adapters_train():
@@ -33,7 +28,7 @@ def test_lora_starts_as_identity_and_only_adapters_train():
 
 def test_style_file_round_trip_and_strength(tmp_path):
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     style = Style(lora_state(model), {"rank": 8, "style": "old", "config": {}}, torch.randn(20, FEATURES.dim))
     style.save(tmp_path / "old.v2s")
     loaded = Style.load(tmp_path / "old.v2s")
@@ -47,17 +42,6 @@ def test_style_file_round_trip_and_strength(tmp_path):
     assert not torch.allclose(again(x, t), prior(x, t))
     set_gain(again, 0.0)
     assert torch.allclose(again(x, t), prior(x, t), atol=1e-5)
-
-
-def _trained_style(prior):
-    import copy
-
-    model = copy.deepcopy(prior)
-    add_lora(model, rank=8)
-    for m in model.modules():
-        if isinstance(m, LoRALinear):
-            torch.nn.init.normal_(m.lora_b, std=0.5)
-    return Style(lora_state(model), {"rank": 8})
 
 
 def test_bad_style_file_is_a_clear_error(tmp_path):
@@ -80,7 +64,7 @@ def test_strength_maps_to_k():
 
 def test_apply_keeps_length_and_trajectory():
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     x = torch.randn(150, FEATURES.dim)
     out = apply_style_features(MethodBundle(prior), model, x, LearnConfig(), ApplyConfig(), seed=0)
     assert out.shape == x.shape
@@ -183,7 +167,7 @@ def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
     from transfer.style_config import strength_settings
 
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     x = torch.randn(90, FEATURES.dim)
     learned, diff = LearnConfig(), ApplyConfig(apply_mode="difference", style_scale=1.0)
     assert strength_settings(0.0, learned, diff) == (300, replace(diff, style_scale=0.0))
@@ -207,7 +191,7 @@ def test_style_guidance_weight_one_is_the_style_model():
     from transfer.edit import StyleGuided
 
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     x, t = torch.randn(1, 12, FEATURES.dim), torch.tensor([200])
     assert torch.equal(StyleGuided(prior, model, 1.0)(x, t), model(x, t))
     p, s = prior(x, t), model(x, t)
@@ -270,6 +254,7 @@ def test_a_still_style_model_keeps_only_the_slow_part_of_its_difference():
         still_share(moving[0], base[0])
 
 
+@pytest.mark.slow
 def test_the_shipped_caption_table_is_what_the_encoder_gives_and_apply_needs_no_model():
     import torch
 

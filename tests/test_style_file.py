@@ -8,7 +8,7 @@ import torch
 from safetensors.torch import save_file
 
 from motioncore.representation import FEATURES
-from tests.test_style import _trained_style, tiny_denoiser
+from tests.helpers import tiny_denoiser, trained_style
 from transfer.style_file import Style, style_model
 
 
@@ -20,7 +20,7 @@ def _write(path, meta, tensors):
 
 @pytest.fixture()
 def good():
-    style = _trained_style(tiny_denoiser())
+    style = trained_style(tiny_denoiser())
     meta = {"style": "old", "content": "a person walks", "rank": 8, "iterations": 40,
             "config": {"rank": 8, "transfer_noise_step": 300, "max_seconds": None, "apply_mode": "difference"}}
     tensors = {k: v.half() for k, v in style.adapters.items()}
@@ -45,7 +45,8 @@ def test_a_valid_file_loads(tmp_path, good):
     (lambda m, t: m.update(style="x" * 5000), "style: expected a string"),
     (lambda m, t: m.update(tempo=100.0), "tempo"),
     (lambda m, t: t.update(example=torch.zeros(12_001, FEATURES.dim)), "example: expected"),
-    (lambda m, t: t.update(example=torch.zeros(200_000, FEATURES.dim)), "tensors too large"),
+    pytest.param(lambda m, t: t.update(example=torch.zeros(200_000, FEATURES.dim)), "tensors too large",
+                 marks=pytest.mark.slow),
     (lambda m, t: t.update(example=torch.zeros(30, 5)), "example: expected"),
     (lambda m, t: t.update({next(iter(t)): torch.full_like(t[next(iter(t))], float("nan"))}), "NaN or infinite"),
     (lambda m, t: t.update({next(iter(t)): t[next(iter(t))].to(torch.int32)}), "expected floating point"),

@@ -8,7 +8,7 @@ import torch
 
 from motioncore.motion import root_speed, time_warp, trim
 from motioncore.span import check_span
-from tests.helpers import random_motion
+from testkit.motions import random_motion
 
 
 def test_trim_keeps_the_frames_inside_the_span():

@@ -14,8 +14,8 @@ from safetensors.torch import save_file
 from motioncore.bvh import BvhError, BvhLayout, read_bvh, write_bvh
 from motioncore.representation import FEATURES, encode
 from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
-from tests.test_style import _trained_style, tiny_denoiser
+from testkit.motions import random_motion
+from tests.helpers import tiny_denoiser, trained_style
 from transfer.bundle import MethodBundle
 from transfer.style_config import CONFIG_RANGES, check_config_value
 from transfer.style_file import Style, style_model, validate_config
@@ -128,6 +128,7 @@ def test_a_style_config_that_would_make_apply_slow_is_refused(config, field):
         validate_config(config)
 
 
+@pytest.mark.slow
 def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkeypatch):
     from video2style import pipeline
 
@@ -291,7 +292,7 @@ def test_apply_refuses_a_bad_tempo_before_loading_the_models(tmp_path, capsys, m
 
     monkeypatch.setattr("transfer.bundle.load_models", no_models)
     style = tmp_path / "s.v2s"
-    Style(_trained_style(tiny_denoiser()).adapters, {"style": "s", "rank": 8}).save(style)
+    Style(trained_style(tiny_denoiser()).adapters, {"style": "s", "rank": 8}).save(style)
     out = tmp_path / "out"
     assert main(["apply", str(style), str(_clip(tmp_path / "c.bvh")), "-o", str(out), "--tempo", "abc"]) == 1
     assert _one_error_line(capsys.readouterr().err).endswith("--tempo: expected off, auto or a number from 0.5 to 1.5, got abc")
@@ -300,7 +301,7 @@ def test_apply_refuses_a_bad_tempo_before_loading_the_models(tmp_path, capsys, m
 
 @pytest.fixture
 def good_style():
-    style = _trained_style(tiny_denoiser())
+    style = trained_style(tiny_denoiser())
     meta = {"style": "old", "content": "a person walks", "rank": 8, "config": {"rank": 8}}
     return meta, {k: v.half() for k, v in style.adapters.items()}
 

@@ -17,9 +17,12 @@ Jobs (every path absolute; each job starts from an empty scene):
   armature units and axes, ``fps``, ``frame_start``), replacing the chosen action; everything else in the
   file (meshes, materials, skin weights, rest pose, roll, other bones' names) is what the importer made.
   Without a source, NPZ also carries the skeleton (``parents``, ``offsets``) and a new armature is built.
-  With ``blend`` (the read job's .blend), that scene is opened instead of importing F again. Then export
-  O. Answers the frame range written.
+  With ``blend`` (the read job's .blend), that scene is opened instead of importing F again. The armature's
+  other actions (``actions``: the read's list, the file's first one first) are written beside the styled one as
+  they were, each a take (FBX) or animation (glTF) of its own name. Then export O. Answers the frame range
+  written.
 """
+import contextlib
 import itertools
 import json
 import math
@@ -104,8 +107,9 @@ def _choose(path, armature, action):
     actions = _actions_for(arm)
     if not actions:
         raise JobError(f"{path}: armature {arm.name!r} has no animation")
-    if action is not None:
-        act = next((a for a in actions if a.name == action), None)
+    if action is not None:  # the action's own name, or its take's as the file names it (FBX "Walk" for "Armature|Walk")
+        act = (next((a for a in actions if a.name == action), None) or
+               next((a for a in actions if _take_name(arm, a) == action), None))
         if act is None:
             raise JobError(f"{path}: no action {action!r} on {arm.name!r}; it has {', '.join(a.name for a in actions)}")
     else:
@@ -118,6 +122,17 @@ def _choose(path, armature, action):
     if len(actions) > 1:
         notes.append(f"used action {act.name!r} of {', '.join(a.name for a in actions)} (--action to choose)")
     return arm, act, names, [a.name for a in actions], notes
+
+
+def _take_name(arm, act):
+    """The name the file gives action ``act`` of ``arm``: its NLA track's (the glTF importer puts each animation in a
+    track of its name), else its own without the ``<armature>|`` the FBX importer puts before a take's name."""
+    data = arm.animation_data
+    for track in data.nla_tracks if data is not None else ():
+        if any(s.action == act for s in track.strips) and not track.name.startswith(("NlaTrack", "[Action Stash]")):
+            return track.name
+    prefix = f"{arm.name}|"
+    return act.name[len(prefix):] if act.name.startswith(prefix) and len(act.name) > len(prefix) else act.name
 
 
 def _frame_range(act):
@@ -370,32 +385,83 @@ def _embedded_gltf():
     return "GLTF_EMBEDDED"
 
 
-def _export(out, fmt):
+def _export(out, fmt, takes=False):
+    """Export the scene as ``out``; ``takes``: each NLA strip (track, for glTF) of the armature as its own take."""
     if fmt == "fbx":
-        bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
-                                 bake_anim_use_all_bones=True, bake_anim_use_nla_strips=False,
-                                 bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
-                                 bake_anim_simplify_factor=FBX_SIMPLIFY, apply_unit_scale=True)
+        with _TakesAtTheirFrames() if takes else contextlib.nullcontext():
+            bpy.ops.export_scene.fbx(filepath=out, use_selection=False, add_leaf_bones=False, bake_anim=True,
+                                     bake_anim_use_all_bones=True, bake_anim_use_nla_strips=takes,
+                                     bake_anim_use_all_actions=False, bake_anim_force_startend_keying=True,
+                                     bake_anim_simplify_factor=FBX_SIMPLIFY, apply_unit_scale=True)
     elif fmt in ("glb", "gltf"):
         bpy.ops.export_scene.gltf(filepath=out, export_format="GLB" if fmt == "glb" else _embedded_gltf(),
-                                  export_animations=True, export_nla_strips=False, export_force_sampling=True,
-                                  export_frame_range=True, export_def_bones=False, export_skins=True,
+                                  export_animations=True, export_nla_strips=takes, export_force_sampling=True,
+                                  export_frame_range=not takes, export_def_bones=False, export_skins=True,
                                   export_yup=True)
     else:
         raise JobError(f"{out}: expected format fbx, glb or gltf, got {fmt!r}")
 
 
+def _keep_takes(arm, takes):
+    """Each of ``takes`` ((action, name), the file's first first) in an NLA track and strip of its name, unmuted, at
+    the action's own frames, and the first one active: the exporters' one-take-per-strip modes (FBX) and
+    one-animation-per-track (glTF) then write the file's other actions as they were, beside the styled one."""
+    data = arm.animation_data
+    for track in list(data.nla_tracks):
+        data.nla_tracks.remove(track)
+    for act, name in takes:
+        track = data.nla_tracks.new()
+        track.name = name
+        strip = track.strips.new(name, math.floor(act.frame_range[0] + 1e-6), act)
+        strip.name = name
+        strip.extrapolation = "NOTHING"
+    data.action = takes[0][0]
+
+
+class _TakesAtTheirFrames:
+    """Blender's FBX exporter starts each strip's take at time 0; while this is entered each take keeps its own
+    frames (as the file had them, and as the styled clip was read)."""
+
+    def __enter__(self):
+        import inspect
+
+        from io_scene_fbx import export_fbx_bin
+
+        self.module, self.do = export_fbx_bin, export_fbx_bin.fbx_animations_do
+        signature = inspect.signature(self.do)
+        if "start_zero" not in signature.parameters:
+            return self
+        do = self.do
+
+        def at_own_frames(*args, **kwargs):
+            bound = signature.bind(*args, **kwargs)
+            bound.arguments["start_zero"] = False
+            return do(*bound.args, **bound.kwargs)
+
+        export_fbx_bin.fbx_animations_do = at_own_frames
+        return self
+
+    def __exit__(self, *exc):
+        self.module.fbx_animations_do = self.do
+
+
 def job_write(job):
     npz = numpy.load(job["motion"])
     fps = float(npz["fps"])
-    if job.get("source") and job.get("blend") and os.path.isfile(job["blend"]):
-        bpy.ops.wm.open_mainfile(filepath=job["blend"])
-        arm, act, _, _, _ = _choose(job["source"], job["armature"], job["action"])
+    takes = None
+    if job.get("source"):
+        if job.get("blend") and os.path.isfile(job["blend"]):
+            bpy.ops.wm.open_mainfile(filepath=job["blend"])
+            arm, act, _, names, _ = _choose(job["source"], job["armature"], job["action"])
+        else:
+            arm, act, _, names, _ = _load(job["source"], job.get("armature"), job.get("action"))
         name = act.name
-        bpy.data.actions.remove(act)
-    elif job.get("source"):
-        arm, act, _, _, _ = _load(job["source"], job.get("armature"), job.get("action"))
-        name = act.name
+        # the armature's actions in the file's order (the read's list: the file's first one first), the chosen one
+        # to be replaced by the styled one (None here), the others written back as they were
+        own = {a.name: a for a in _actions_for(arm)}
+        order = [n for n in job.get("actions") or () if n in own] + [n for n in names if n not in (job.get("actions") or ())]
+        takes = [(None if n == name else own[n], _take_name(arm, own[n])) for n in order]
+        arm.animation_data.action = None
         bpy.data.actions.remove(act)  # the styled action takes its place (and its name)
     else:
         _clear()
@@ -410,12 +476,29 @@ def job_write(job):
         scene.render.fps, scene.render.fps_base = round(fps), round(fps) / fps
     action, start, end = _key(arm, name, npz)
     scene.frame_start, scene.frame_end = start, end
-    if job.get("source"):  # the FBX take is named after the scene: the source's take ("<armature>|<take>" read)
-        scene.name = name[len(arm.name) + 1:] if name.startswith(f"{arm.name}|") else name
+    several = takes is not None and (len(takes) > 1 or job["format"] != "fbx")
+    if several:  # each action its own take (FBX) or animation (glTF), under the file's own names
+        _keep_takes(arm, [(action if a is None else a, n) for a, n in takes])
+    elif takes:  # one FBX take: named after the scene, so the source's take ("<armature>|<take>" read)
+        scene.name = takes[0][1]
     if job["format"] == "fbx":
+        arm.animation_data.action = action
         _rest_before(action, start)
-    _export(job["out"], job["format"])
+    _export(job["out"], job["format"], takes=several)
     return {"armature": arm.name, "action": action.name, "frame_start": start, "frame_end": end, "fps": _scene_fps()}
+
+
+def _what_failed(e):
+    """``Type: message`` of an exception; for an operator's RuntimeError that carries an add-on's whole traceback
+    ("Error: Python: Traceback ... OSError: [Errno 28] No space left on device"), the traceback's last line."""
+    import re
+
+    text = str(e)
+    if "Traceback (most recent call last)" in text:
+        raised = [ln.strip() for ln in text.splitlines() if re.match(r"\s*[A-Za-z_][\w.]*(Error|Exception)\b.*:", ln)]
+        if raised:
+            return raised[-1]
+    return f"{type(e).__name__}: {text}"
 
 
 def main():
@@ -431,7 +514,7 @@ def main():
             result = {"ok": False, "error": str(e)}
         except Exception as e:  # noqa: BLE001 - one line back to the caller, the job's file named there
             tb = traceback.format_exc().strip().splitlines()
-            result = {"ok": False, "error": f"Blender: {type(e).__name__}: {e}".strip(), "trace": tb[-6:]}
+            result = {"ok": False, "error": f"Blender: {_what_failed(e)}".strip(), "trace": tb[-6:]}
         sys.stdout.write("V2S-RESULT " + json.dumps(result) + "\n")
         sys.stdout.flush()
 

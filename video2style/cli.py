@@ -212,7 +212,7 @@ def cmd_preview(args) -> None:
 
 def cmd_skeleton(args) -> None:
     from motioncore.retarget import RetargetError, load_joint_map
-    from video2style.skeleton import (
+    from video2style.rig_report import (
         inspect_skeleton,
         render_roles,
         report_lines,

@@ -168,13 +168,14 @@ def job_limit(job: dict, frames: int | None = None) -> float:
 
 def parse_answer(text: str, op: str | None = None) -> dict:
     """Blender's answer line (after ``V2S-RESULT``) as a dict with ``ok`` and, when ok, the fields ``op`` needs
-    (:data:`REQUIRED`); ValueError (a short reason) for anything else."""
+    (:data:`REQUIRED`); ValueError (a short reason) for anything else, TypeError (as short) for JSON that is not
+    an object with a boolean ``ok``."""
     try:
         out = json.loads(text)
     except (ValueError, RecursionError):
         raise ValueError("an answer that is not JSON") from None
     if not isinstance(out, dict) or not isinstance(out.get("ok"), bool):
-        raise ValueError("an answer without its ok field")
+        raise TypeError("an answer without its ok field")
     if not out["ok"]:
         if not isinstance(out.get("error"), str) or not out["error"].strip():
             raise ValueError("a failure without its error")
@@ -269,7 +270,7 @@ class Blender:
             raise
         try:
             out = parse_answer(line, job.get("op"))
-        except ValueError as e:
+        except (TypeError, ValueError) as e:
             self.kill()  # a Blender that answers nonsense is not asked again
             raise InterchangeError(f"{shown}: Blender gave {e}: {printable(line, SHOWN_CHARS) or 'nothing'}") from None
         if not out.pop("ok"):
@@ -435,7 +436,8 @@ def _why_not_written(folder: Path) -> str:
     except OSError:
         return ""
     if free < 16 << 20:
-        return (f" in {folder.parent}: its disk is full ({free / 1e6:.1f} MB free); free some space or set TMPDIR "
+        root = next((p.parent for p in (folder, *folder.parents) if p.name.startswith(TEMP_PREFIX)), folder.parent)
+        return (f" in {root}: its disk is full ({free / 1e6:.1f} MB free); free some space or set TMPDIR "
                 "to a folder on another disk")
     return ""
 
@@ -527,6 +529,12 @@ class Converter:
                 raise InterchangeError(f"{path}: Blender wrote no motion for it{_why_not_written(where)}")
             info["blend"] = str(where / "scene.blend")
             _exact_frame_time(bvh, info["fps"])
+        except (InterchangeError, OSError) as e:
+            full = _why_not_written(where)  # the temporary folder's disk filled up: say so, not what failed on it
+            shutil.rmtree(where, ignore_errors=True)
+            if full and "Blender wrote no motion" not in str(e):
+                raise InterchangeError(f"{path}: its motion could not be written{full}") from None
+            raise
         except BaseException:
             shutil.rmtree(where, ignore_errors=True)
             raise
@@ -568,13 +576,18 @@ class Converter:
                 self.to_bvh(source)
             read = self.info(source)
             job.update(source=str(Path(source).resolve()), armature=read["armature"], action=read["action"],
-                       blend=read["blend"])
+                       actions=read.get("actions"), blend=read["blend"])  # the other actions are kept
             arrays["frame_start"] = np.array(read["frame_start"])
         else:
             job.update(source=None, up=_up_axis(bvh))
             arrays["frame_start"] = np.array(1)
         npz = self._folder() / f"motion{len(list(self._folder().glob('motion*.npz')))}.npz"
-        np.savez(npz, **arrays)
+        try:
+            np.savez(npz, **arrays)
+        except OSError as e:
+            npz.unlink(missing_ok=True)
+            raise InterchangeError(f"{out}: the motion could not be handed to Blender"
+                                   f"{_why_not_written(npz.parent) or f' ({printable(e.strerror or e)})'}") from None
         job["motion"] = str(npz)
         try:
             with atomic_output(out) as tmp:

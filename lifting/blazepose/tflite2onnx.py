@@ -49,10 +49,7 @@ def fold_constants(graph: Graph) -> Graph:
     for op in graph.ops:
         src = graph.tensors[op.inputs[0]] if op.inputs else None
         if op.kind == "DENSIFY" and src is not None and src.data is not None:
-            if src.sparsity is None:
-                dense = src.data
-            else:
-                dense = densify(src.data, src.shape, src.sparsity)
+            dense = src.data if src.sparsity is None else densify(src.data, src.shape, src.sparsity)
             out = graph.tensors[op.outputs[0]]
             out.data, out.sparsity = dense.astype(src.dtype), None
         elif op.kind == "DEQUANTIZE" and src is not None and src.data is not None and src.sparsity is None:

@@ -45,7 +45,7 @@ from motioncore.humanoid.geometry import (
     _limb_pairs,
     _Pair,
 )
-from motioncore.humanoid.limbs import (
+from motioncore.humanoid.limb_chains import (
     _arm,
     _chest_below_shoulders,
     _forward,

@@ -32,7 +32,7 @@ from lifting.blazepose.geometry import (
     letterbox_roi,
     roi_from_alignment_points,
 )
-from tests.lifting.synthetic_blazepose import humanoid_frame
+from testkit.synthetic_blazepose import humanoid_frame
 
 OUT = Path(__file__).parent / "data" / "blazepose_reference.npz"
 TOP_K = 8

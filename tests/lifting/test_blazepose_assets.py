@@ -143,6 +143,7 @@ def test_cached_models_are_valid_onnx(blazepose_models):
     assert det.opset_import[0].version == 13
 
 
+@pytest.mark.slow
 def test_conversion_from_local_wheel_into_fresh_cache(tmp_path, blazepose_models, no_env):
     """The full path (wheel → checksum → convert → atomic write) into an empty cache."""
     try:

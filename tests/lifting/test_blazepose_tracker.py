@@ -8,7 +8,7 @@ import pytest
 
 from lifting.blazepose.results import POSE_LANDMARKS, TrackResult
 from lifting.tracking import track
-from tests.lifting.synthetic_blazepose import (
+from testkit.synthetic_blazepose import (
     draw_humanoid,
     humanoid_frame,
     humanoid_joints,

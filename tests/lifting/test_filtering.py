@@ -1,5 +1,7 @@
+import pytest
 
 
+@pytest.mark.slow
 def test_our_butterworth_filtfilt_is_scipys():
     """lowpass does without importing scipy.signal (most of a second at start): same numbers."""
     import numpy as np

@@ -16,29 +16,14 @@ import pytest
 import torch
 
 from lifting.render_humanoid import frame_camera, write_humanoid_video
-from motioncore import quat
 from motioncore.bvh import read_bvh
-from motioncore.ik_fit import default_reference
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from motioncore.skeleton import CANONICAL
-from tests.lifting.synthetic_blazepose import humanoid_frame
+from testkit.synthetic_blazepose import humanoid_frame
+from tests.lifting.helpers import H, W, waving_motion
 
 SK = CANONICAL.skeleton
-W, H = 640, 360
-
-
-def waving_motion(seconds: float = 1.6, fps: float = 30.0) -> Motion:
-    """The reference (mean) pose standing at the origin facing +Z, waving the right arm and
-    bending the knees a little."""
-    n = round(seconds * fps)
-    t = torch.arange(n) / fps
-    lrot = default_reference().expand(n, -1, -1).clone()
-    wave = quat.from_axis_angle(torch.tensor([0.0, 0.0, 1.0]).expand(n, 3), -1.4 + 0.5 * torch.sin(2 * math.pi * 1.2 * t))
-    lrot[:, SK.index("UpperArm_R")] = quat.mul(lrot[:, SK.index("UpperArm_R")], wave)
-    lpos = SK.offsets.expand(n, -1, -1).clone()
-    lpos[:, 0, 1] = 0.93
-    return Motion(SK, lrot, lpos, fps)
 
 
 def write_clip(path, frames) -> None:
@@ -111,6 +96,7 @@ def rendered(tmp_path_factory, blazepose_models):
     return path, motion
 
 
+@pytest.mark.slow
 def test_pose_file_writes_bvh_and_preview(rendered, tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -132,6 +118,7 @@ def test_pose_file_writes_bvh_and_preview(rendered, tracker, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.bvh", "out_pose.mp4"]  # no temporary files left
 
 
+@pytest.mark.slow
 def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     from lifting.lift import lift_video, video_to_motion
 
@@ -141,7 +128,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert motion.skeleton is SK and motion.fps == pytest.approx(30.0) and motion.num_frames == truth.num_frames
     pred = motion.global_positions().double().numpy()
     gt = truth.global_positions().double().numpy()
-    from tests.lifting.accuracy import compare
+    from testkit.accuracy import compare
 
     m = compare(pred, gt, 30.0)
     assert m["pa_mpjpe_mm"] < 90.0, m
@@ -159,6 +146,7 @@ def test_video_to_motion_accuracy_on_a_render(rendered, tracker):
     assert isinstance(video_to_motion(video, tracker=tracker), Motion)
 
 
+@pytest.mark.slow
 def test_grey_video_has_no_person(tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -169,6 +157,7 @@ def test_grey_video_has_no_person(tracker, tmp_path):
     assert_nothing_written(tmp_path)
 
 
+@pytest.mark.slow
 def test_too_little_motion(tracker, tmp_path):
     from video2style.pose import pose_file
 
@@ -225,6 +214,7 @@ def test_the_background_import_hands_its_error_to_the_caller():
     assert "json" not in preload._threads and preload.finish("json").dumps([1]) == "[1]"
 
 
+@pytest.mark.slow
 def test_tracking_in_a_child_process_matches_tracking_here(rendered, tracker, tmp_path, monkeypatch):
     from lifting import track_process
     from lifting.track_process import track_in_child

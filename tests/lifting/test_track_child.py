@@ -14,7 +14,7 @@ import pytest
 
 from lifting.render_humanoid import frame_camera, render_frames
 from motioncore.mp4 import write_mp4
-from tests.lifting.test_pipeline import H, W, waving_motion
+from tests.lifting.helpers import H, W, waving_motion
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from Linux's /proc")
 
@@ -46,6 +46,7 @@ def _alive(pid: int) -> bool:
     return st is not None and st[0] not in ("Z", "X")  # a zombie has stopped; only its parent's reaping is left
 
 
+@pytest.mark.slow
 def test_kill_9_of_pose_ends_its_tracking_child(blazepose_models, tmp_path):
     motion = waving_motion()
     cam = frame_camera(motion.global_positions().numpy(), 35.0, width=W, height=H)

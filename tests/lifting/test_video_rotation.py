@@ -20,7 +20,7 @@ from lifting.render_humanoid import frame_camera, render_frames
 from lifting.upright import check_rotation, check_upright, frame_turn, frame_turns
 from lifting.video import iter_frames, rotate_frame, video_info
 from motioncore.mp4 import write_mp4
-from tests.lifting.test_pipeline import H, W, waving_motion
+from tests.lifting.helpers import H, W, fake_track, standing_landmarks, turned_pixels, waving_motion
 
 CV_TURN = {90: cv2.ROTATE_90_CLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_COUNTERCLOCKWISE}
 
@@ -41,31 +41,6 @@ def tag_rotation(src, dst, turn: int) -> None:
     c, s = {0: (1, 0), 90: (0, 1), 180: (-1, 0), 270: (0, -1)}[turn]
     data[at + 48:at + 84] = struct.pack(">9i", c << 16, s << 16, 0, -s << 16, c << 16, 0, 0, 0, 1 << 30)
     dst.write_bytes(bytes(data))
-
-
-def standing_landmarks(n: int = 10) -> np.ndarray:
-    """(n,33,3) pixels of a person standing upright: shoulders at y=100, hips at 200, ankles at 300."""
-    pts = np.zeros((n, len(POSE_LANDMARKS), 3), np.float32)
-    for name, y in (("shoulder", 100), ("hip", 200), ("ankle", 300)):
-        pts[:, POSE_LANDMARKS.index(f"left_{name}")] = (310, y, 0)
-        pts[:, POSE_LANDMARKS.index(f"right_{name}")] = (330, y, 0)
-    return pts
-
-
-def turned_pixels(pts: np.ndarray, turn: int, width: int = 640, height: int = 360) -> np.ndarray:
-    """Landmark pixels of a ``width`` x ``height`` frame after turning the frame ``turn`` degrees clockwise."""
-    x, y = pts[..., 0], pts[..., 1]
-    new = {0: (x, y), 90: (height - 1 - y, x), 180: (width - 1 - x, height - 1 - y), 270: (y, width - 1 - x)}[turn]
-    return np.stack([*new, pts[..., 2]], -1)
-
-
-def fake_track(image: np.ndarray, found: np.ndarray | None = None):
-    from lifting.blazepose.results import TrackResult
-
-    n = len(image)
-    found = np.ones(n, bool) if found is None else found
-    return TrackResult(world=np.zeros_like(image), image=image, visibility=np.ones((n, 33)), presence=np.ones((n, 33)),
-                       score=np.ones(n), found=found, times=np.arange(n) / 30.0, fps=30.0, width=640, height=360)
 
 
 # ---------------------------------------------------------------- no models needed
@@ -180,6 +155,7 @@ def head_above_feet(motion) -> float:
     return float((p[:, sk.index("Head"), 1] - feet).mean())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("turn", "fix"), [(90, 270), (180, 180)])
 def test_a_turned_video_is_refused_then_upright_with_rotate(frames, tracker, tmp_path, turn, fix):
     from lifting.lift import lift_video
@@ -200,6 +176,7 @@ def test_a_tagged_phone_video_is_upright_without_rotate(frames, tracker, tmp_pat
     assert head_above_feet(lift_video(tmp_path / "phone.mp4", tracker=tracker).motion) > 1.0
 
 
+@pytest.mark.slow
 def test_pose_cli_refuses_an_upside_down_video_in_one_line(frames, tmp_path):
     video = write_turned(tmp_path / "flipped.mp4", frames, 180)
     run = subprocess.run([sys.executable, "-m", "video2style", "pose", str(video), "-o", str(tmp_path / "f.bvh"),

@@ -14,71 +14,15 @@ import torch
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motioncore.bvh import BvhLayout, write_bvh
-from motioncore.skeleton import CANONICAL
-from tests.helpers import random_motion
+from motioncore.bvh import write_bvh
+from testkit.motions import random_motion
+from tests.helpers import make_library, write_clip
 from video2style import batch
 from video2style.cli import main
 
 
-def _clip(path: Path, seconds: float = 1.0) -> Path:
-    write_bvh(path, random_motion(seconds=seconds), BvhLayout.default(CANONICAL.skeleton, scale=0.01))
-    return path
-
-
-class _FakeStyle:
-    def __init__(self):
-        self.meta = {}
-
-
-@pytest.fixture
-def fake_pipeline(monkeypatch):
-    """learn/apply replaced by fakes that write the files the real ones write; calls are recorded."""
-    calls = {"learn": [], "apply": [], "crash_after_bvh": set()}
-
-    def learn_file(video, out, **kw):
-        calls["learn"].append(Path(video).name)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text("style")
-
-    def load(path):
-        if Path(path).read_text() != "style":
-            raise ValueError(f"{path}: not a style file")
-        return _FakeStyle()
-
-    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
-        calls["apply"].append(str(clip))
-        calls.setdefault("apply_args", []).append((strength, seed, *rest))
-        out_dir.mkdir(parents=True, exist_ok=True)
-        bvh = out_dir / f"{clip.stem}.bvh"
-        bvh.write_text("bvh")
-        if clip.name in calls["crash_after_bvh"]:
-            raise KeyboardInterrupt  # killed between the BVH and its preview
-        preview = out_dir / f"{clip.stem}_preview.mp4"
-        preview.write_text("mp4")
-        return {"output": str(bvh), "preview": str(preview)}
-
-    monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
-    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
-    monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
-    monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
-    monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
-    return calls
-
-
-def _library(tmp_path: Path) -> tuple[Path, Path]:
-    videos, content = tmp_path / "videos", tmp_path / "content"
-    videos.mkdir()
-    for name in ("old.mp4", "old.mov", "strut.mp4"):
-        (videos / name).write_bytes(b"not read by the fake learner")
-    for rel in ("a/walk.bvh", "b/walk.bvh", "run.bvh"):
-        (content / rel).parent.mkdir(parents=True, exist_ok=True)
-        (content / rel).write_text("clip")
-    return videos, content
-
-
 def test_batch_outputs_never_collide_and_an_item_is_done_only_with_all_its_outputs(tmp_path, fake_pipeline):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     fake_pipeline["crash_after_bvh"].add("run.bvh")
     with pytest.raises(KeyboardInterrupt):
@@ -98,7 +42,7 @@ def test_batch_outputs_never_collide_and_an_item_is_done_only_with_all_its_outpu
 
 
 def test_a_corrupt_style_in_the_output_folder_is_learned_again(tmp_path, fake_pipeline):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     (out / "styles").mkdir(parents=True)
     (out / "styles" / "strut.v2s").write_bytes(b"\x00garbage")
@@ -108,7 +52,7 @@ def test_a_corrupt_style_in_the_output_folder_is_learned_again(tmp_path, fake_pi
 
 
 def test_a_video_that_fails_is_one_failed_item_and_the_index_is_written(tmp_path, fake_pipeline, monkeypatch):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
 
     def broken(video, out, **kw):
         raise ValueError(f"{video}: no person found")
@@ -120,7 +64,7 @@ def test_a_video_that_fails_is_one_failed_item_and_the_index_is_written(tmp_path
 
 
 def test_stale_temporary_files_are_swept_and_a_second_batch_is_refused(tmp_path, fake_pipeline):
-    videos, content = _library(tmp_path)
+    videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     (out / "old_mp4").mkdir(parents=True)
     stale = out / "old_mp4" / ".walk_preview.mp4.v2s-tmp-ab12cd34.mp4"  # motioncore.files.temp_beside's shape
@@ -138,7 +82,7 @@ def test_stale_temporary_files_are_swept_and_a_second_batch_is_refused(tmp_path,
 def test_apply_refuses_two_clips_that_would_write_one_output(tmp_path):
     from video2style.cli import CliError, _bvh_inputs
 
-    a, b = _clip(tmp_path / "a" / "walk.bvh"), _clip(tmp_path / "b" / "walk.bvh")
+    a, b = write_clip(tmp_path / "a" / "walk.bvh"), write_clip(tmp_path / "b" / "walk.bvh")
     with pytest.raises(CliError, match="would both write"):
         _bvh_inputs([a, b], tmp_path / "out")
     pairs = _bvh_inputs([tmp_path], tmp_path / "out")  # a folder keeps its subfolders
@@ -186,7 +130,7 @@ def test_a_video_writer_that_drops_frames_is_an_error_not_a_short_file(tmp_path,
             self.inner.release()
 
     monkeypatch.setattr("motioncore.render.cv2.VideoWriter", FullDisk)
-    clip, out = _clip(tmp_path / "c.bvh"), tmp_path / "o" / "c.mp4"
+    clip, out = write_clip(tmp_path / "c.bvh"), tmp_path / "o" / "c.mp4"
     assert main(["preview", str(clip), "-o", str(out)]) == 1
     err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
     assert len(err) == 1 and str(out) in err[0] and "not written completely" in err[0]
@@ -201,8 +145,9 @@ def test_nan_never_reaches_a_file(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_sigterm_cleans_up_like_ctrl_c(tmp_path):
-    clip = _clip(tmp_path / "long.bvh", seconds=100.0)
+    clip = write_clip(tmp_path / "long.bvh", seconds=100.0)
     out = tmp_path / "o" / "long.mp4"
     proc = subprocess.Popen([sys.executable, "-m", "video2style", "preview", str(clip), "-o", str(out)],
                             stderr=subprocess.PIPE, text=True, cwd=tmp_path)
@@ -221,6 +166,7 @@ _JSON = st.recursive(st.none() | st.booleans() | st.integers(-10**9, 10**9) | st
                      max_leaves=12)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(meta=st.dictionaries(st.sampled_from(["style", "content", "config", "iterations", "tempo", "rank",
                                               "base_model_sha256", "span", "loss_rec"]), _JSON, max_size=5),
@@ -247,10 +193,11 @@ def test_fuzzed_style_files_are_refused_in_one_line_or_loaded(tmp_path_factory, 
     assert os.path.exists(path)
 
 
+@pytest.mark.slow
 def test_a_frame_time_that_stretches_a_small_file_over_days_is_refused_before_resampling(tmp_path):
     from video2style.pipeline import read_clip
 
-    clip = _clip(tmp_path / "slow.bvh", seconds=2.0)
+    clip = write_clip(tmp_path / "slow.bvh", seconds=2.0)
     text = clip.read_text().replace("Frame Time: 0.05000000", "Frame Time: 1.0")
     many = text.split("MOTION")[1].splitlines()[3:]
     body = text.split("MOTION")[0] + f"MOTION\nFrames: {len(many) * 600}\nFrame Time: 1.0\n" + "\n".join(many * 600) + "\n"

@@ -1,6 +1,6 @@
-"""The rigs of tests/rig_corpus.py animated in poses that do not show a standing figure.
+"""The rigs of testkit/rig_corpus.py animated in poses that do not show a standing figure.
 
-:func:`posed_motion` gives a clip of one :class:`~tests.rig_corpus.RigCase` holding one of
+:func:`posed_motion` gives a clip of one :class:`~testkit.rig_corpus.RigCase` holding one of
 :data:`POSES` for the whole clip (with a slow turn and a little sway, so no two frames are the
 same). ``rest="file"`` keeps the case's standing rest pose; ``rest="bones_x"`` rewrites the rest
 pose the way Bandai's files do -- every joint's first bone along its own +X, so the rest pose is a
@@ -22,7 +22,7 @@ from motioncore import quat
 from motioncore.kinematics import fk, rest_positions, to_local
 from motioncore.motion import Motion
 from motioncore.skeleton import Skeleton
-from tests.rig_corpus import RigCase, to_rig_axes
+from testkit.rig_corpus import RigCase, to_rig_axes
 
 _X, _Y, _Z = (torch.tensor(v, dtype=torch.float64) for v in ((1.0, 0, 0), (0, 1.0, 0), (0, 0, 1.0)))
 

@@ -82,14 +82,14 @@ def test_bad_inputs_are_refused():
 def test_apply_keeps_the_content_only_when_the_config_says_so_and_reports_the_share():
     from dataclasses import replace
 
-    from tests.test_style import _trained_style, tiny_denoiser
+    from tests.helpers import tiny_denoiser, trained_style
     from transfer.apply import apply_style_features
     from transfer.bundle import MethodBundle
     from transfer.style_config import ApplyConfig, LearnConfig
     from transfer.style_file import style_model
 
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     encoder = _Encoder(ch=FEATURES.positions.start)  # a channel the style changes (the root's path is kept)
     bundle = MethodBundle(prior, motion_encoder=encoder, text_encoder=_Text())
     torch.manual_seed(0)
@@ -116,7 +116,7 @@ def test_with_top_a_result_still_read_first_as_the_content_s_action_passes():
 def test_apply_holds_the_arms_of_a_clip_done_in_place_under_a_travelling_examples_style():
     from dataclasses import replace
 
-    from tests.test_style import _trained_style, tiny_denoiser
+    from tests.helpers import tiny_denoiser, trained_style
     from transfer.apply import apply_style_features
     from transfer.bundle import MethodBundle
     from transfer.posture import keep_arm_motion
@@ -124,7 +124,7 @@ def test_apply_holds_the_arms_of_a_clip_done_in_place_under_a_travelling_example
     from transfer.style_file import style_model
 
     prior = tiny_denoiser()
-    model = style_model(prior, _trained_style(prior))
+    model = style_model(prior, trained_style(prior))
     bundle = MethodBundle(prior, mean=torch.zeros(FEATURES.dim), std=torch.ones(FEATURES.dim))
     torch.manual_seed(0)
     x = torch.randn(90, FEATURES.dim) * 0.1
