@@ -150,16 +150,18 @@ def _fake_apply(monkeypatch, gate: threading.Event | None = None, started: threa
         s.meta = {"style": Path(path).name}
         return s
 
-    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
+    def apply(self, clip, out_dir, request, joint_map=None):
+        from video2style.result import ApplyResult
+
         out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / f"{clip.stem}.bvh").write_text(style.meta["style"])
+        (out_dir / f"{clip.stem}.bvh").write_text(self.style.meta["style"])
         if started is not None:
             started.set()
             gate.wait(30)
-        (out_dir / f"{clip.stem}_preview.mp4").write_text(style.meta["style"])
-        return {"output": str(out_dir / f"{clip.stem}.bvh"), "frames": 20, "seconds_transfer": 0.0}
+        (out_dir / f"{clip.stem}_preview.mp4").write_text(self.style.meta["style"])
+        return ApplyResult(str(clip), [str(out_dir / f"{clip.stem}.bvh")], frames=20, seconds_transfer=0.0)
 
-    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
+    monkeypatch.setattr("video2style.loaded_style.LoadedStyle.apply", apply)
     monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)

@@ -22,7 +22,6 @@ from pathlib import Path
 from transfer.device import DEVICES, resolve_device
 from video2style.batch import (
     BatchReport,
-    _style_facts,
     apply_item,
     batch_folder,
     plan,
@@ -83,14 +82,11 @@ def _apply_job(video: str, style_file: str, items: list[tuple[str, str]], option
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
-    from transfer.bundle import load_models
-    from transfer.style_file import Style, style_model
+    from video2style.loaded_style import LoadedStyle
 
     torch.set_num_threads(threads)
-    style = Style.load(Path(style_file))
-    model = style_model(load_models(device).prior, style)
-    facts = _style_facts(style, options.strength)
-    return [{**apply_item(style, model, facts, video, Path(clip), Path(where), options, retries), "worker": _worker()}
+    style = LoadedStyle.from_file(style_file, device=device)
+    return [{**apply_item(style, video, Path(clip), Path(where), options, retries), "worker": _worker()}
             for clip, where in items]
 
 

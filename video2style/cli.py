@@ -448,9 +448,7 @@ def cmd_apply(args) -> None:
         heading, facts = f"park: {args.domain}", f"Park et al.'s stylizer, domain {args.domain}"
     else:
         run_item, files = _diffusion_runner(args, joint_map)
-        from video2style.batch import _style_facts
-
-        heading, facts = args.style.name, _style_facts(args.apply_style, args.strength)
+        heading, facts = args.style.name, args.apply_style.describe(args.strength)
     from video2style.interchange import in_formats
 
     run_item = in_formats(args, run_item)  # FBX/glTF clips in, results in --format (default: the clip's own)
@@ -495,7 +493,7 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict
     failed, rows = 0, []
     for i, (path, where) in enumerate(files, 1):
         try:
-            info = run_item(path, where)
+            result = run_item(path, where)
         except (ValueError, FileNotFoundError, OSError) as e:
             from motioncore.text import printable
 
@@ -503,23 +501,22 @@ def _apply_all(run_item, files: list[tuple[Path, Path]]) -> tuple[int, list[dict
             print(f"[{i}/{len(files)}] {printable(path)}: error: {printable(e)}", file=sys.stderr)
             rows.append({"clip": path.name, "content": str(path), "status": "failed", "error": printable(e)})
             continue
-        outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
-        details = clip_details(info)
+        outs = result.outputs
+        details = clip_details(result)
         print(f"[{i}/{len(files)}] {path} -> {', '.join(outs)}: {details['summary']}")
         rows.append({"clip": path.name, "content": str(path), "status": "done", **details, "output": outs[0],
                      "outputs": outs})
-        if info.get("preview_note"):
-            print(f"    note: {info['preview_note']}", file=sys.stderr)
-        if info.get("stream_note"):
-            print(f"    note: {info['stream_note']}", file=sys.stderr)
+        if result.preview_note:
+            print(f"    note: {result.preview_note}", file=sys.stderr)
+        if result.stream_note:
+            print(f"    note: {result.stream_note}", file=sys.stderr)
     return failed, rows
 
 
 def _diffusion_runner(args, joint_map):
-    from transfer.bundle import base_model_warning, load_models
-    from transfer.style_file import Style, style_model
+    from transfer.style_file import Style
+    from video2style.loaded_style import LoadedStyle
     from video2style.options import apply_options
-    from video2style.pipeline import apply_file
 
     if args.style is None or args.style.suffix.lower() == ".bvh" or args.style.is_dir():
         raise CliError("apply: the first argument must be a style file from `video2style learn` (or use --method park --domain D)")
@@ -527,15 +524,14 @@ def _diffusion_runner(args, joint_map):
         if getattr(args, flag) is not None:
             raise CliError(f"apply: --{flag} belongs to --method park")
     options = apply_options(args)  # one line for a bad --strength or --tempo, before the style loads
-    style = args.apply_style = Style.load(args.style)
+    style = Style.load(args.style)
     files = _bvh_inputs(args.inputs, args.output, [("the style file", args.style), ("the --joint-map", args.joint_map)],
                         getattr(args, "format", None))
-    model = style_model(load_models(args.device).prior, style)  # apply_file runs on the model's device
-    warning = base_model_warning(style, args.style)
+    loaded = args.apply_style = LoadedStyle.from_style(style, device=args.device)  # the models, after the checks
+    warning = loaded.warning()
     if warning:
         print(warning, file=sys.stderr)
-    return (lambda path, where: apply_file(style, model, path, where, options.strength, options.seed, options.neutralize,
-                                           joint_map, options.preview, options.tempo)), files
+    return (lambda path, where: loaded.apply(path, where, options, joint_map)), files
 
 
 def _park_runner(args, joint_map):
