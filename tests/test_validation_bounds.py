@@ -76,10 +76,10 @@ def test_learn_refuses_up_front_what_a_style_file_may_not_hold(tmp_path, capsys,
 
 @pytest.mark.parametrize("field", ["iterations", "max_seconds", "seed", "posture", "content_keep"])
 def test_the_cli_accepts_exactly_the_schema_s_range_ends(field):
-    from video2style.cli import _style_option
+    from video2style.arguments import style_option
 
     kind, low, high = CONFIG_RANGES[field]
-    parse = _style_option(field)
+    parse = style_option(field)
     for value in (low, high):
         assert parse(str(value)) == value
         validate_config({field: value})

@@ -11,9 +11,9 @@ from pathlib import Path
 
 
 def _seed(v: str):
-    from video2style.cli import _style_option
+    from video2style.arguments import style_option
 
-    return _style_option("seed")(v)
+    return style_option("seed")(v)
 
 
 def _option(*flags: str, read=None, **argument) -> dict:
