@@ -6,10 +6,10 @@ import hashlib
 import pytest
 import torch
 
+from mlcore.dataset import MotionDataset
 from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
 from transfer.bundle import MethodBundle
-from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.learn import learn_style, partial_reason
 from transfer.motion_encoder import MotionEncoder, MotionEncoderConfig

@@ -10,11 +10,11 @@ import pytest
 import torch
 
 import transfer.apply as apply_mod
+from mlcore.shipped import SHIPPED as WEIGHTS
 from motioncore.bvh import BvhError, read_bvh, write_bvh
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.motion import Motion, resample, resample_span
 from tests.helpers import cmu_like_skeleton
-from transfer.shipped import SHIPPED as WEIGHTS
 from video2style import long_takes
 
 

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 import torch
 
+from mlcore.shipped import SHIPPED as WEIGHTS
 from motioncore.bvh import read_bvh
-from transfer.shipped import SHIPPED as WEIGHTS
 from transfer.style_config import LearnConfig
 from transfer.style_file import Style
 from video2style.demo import SAMPLES

@@ -148,7 +148,7 @@ def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkey
 # 3. A long input: learning uses a bounded, most typical part of it, and says which.
 
 def test_the_most_typical_window_of_a_long_example_is_found():
-    from transfer.windows import typical_window
+    from mlcore.windows import typical_window
 
     g = torch.Generator().manual_seed(0)
     x = torch.randn(2000, 8, generator=g)

@@ -122,13 +122,13 @@ def add_rotate(parser: argparse.ArgumentParser) -> None:
 
 
 def add_device(parser: argparse.ArgumentParser) -> None:
-    from transfer.device import DEVICE_HELP, DEVICES
+    from mlcore.device import DEVICE_HELP, DEVICES
 
     parser.add_argument("--device", choices=DEVICES, default="cpu", help=DEVICE_HELP)
 
 
 def add_exclude_styles(parser: argparse.ArgumentParser) -> None:
-    from transfer.captions import NEUTRAL_STYLE, STYLES
+    from mlcore.captions import NEUTRAL_STYLE, STYLES
 
     parser.add_argument("--exclude-styles", dest="exclude_styles", nargs="+", default=None, metavar="STYLE",
                         choices=[s for s in STYLES if s != NEUTRAL_STYLE],

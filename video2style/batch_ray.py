@@ -19,7 +19,7 @@ import socket
 import time
 from pathlib import Path
 
-from transfer.device import DEVICES, resolve_device
+from mlcore.device import DEVICES, resolve_device
 from video2style.batch import (
     BatchReport,
     apply_item,
@@ -39,7 +39,7 @@ def task_device(device: str, cluster_gpus: float | None) -> str:
     """Where the learn and apply tasks run for ``--device`` (``auto``, ``cpu``, ``cuda``): ``"cuda"`` or ``"cpu"``.
 
     ``cluster_gpus`` None (a local Ray): what ``device`` resolves to on this machine
-    (:func:`transfer.device.resolve_device`). On a cluster, the GPUs Ray counts decide: cuda for ``cuda`` (a
+    (:func:`mlcore.device.resolve_device`). On a cluster, the GPUs Ray counts decide: cuda for ``cuda`` (a
     ValueError when there are none: its tasks would wait forever) and for ``auto`` when there are some.
     """
     if cluster_gpus is None:

@@ -46,7 +46,7 @@ def _device_error(args) -> str | None:
     joining a Ray cluster is checked against the cluster's GPUs instead (:func:`video2style.batch_ray.task_device`)."""
     if getattr(args, "device", "cpu") == "cpu" or getattr(args, "ray", None) not in (None, "local"):
         return None
-    from transfer.device import resolve_device
+    from mlcore.device import resolve_device
 
     try:
         resolve_device(args.device)

@@ -46,7 +46,7 @@ def cleaned(features_fn, data, decoder_for=lambda content, example: decode):
     motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
     the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
     stray-limb guard included), foot cleanup and encoding again; normalised as the protocol's ``data``
-    (:class:`transfer.dataset.MotionDataset`) is."""
+    (:class:`mlcore.dataset.MotionDataset`) is."""
     def transfer(content_feats, style_example, style_label, content_label):
         out = features_fn(content_feats, style_example, style_label, content_label)
         content_m = decode(data.denormalize(content_feats))
@@ -181,7 +181,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
     clips for learning drawn without ``exclude_styles`` (the unseen-style protocol); ``words``: the style words
     every style is learned under (default: its name)."""
     from evaluation.protocol import identity_transfer
-    from transfer.dataset import MotionDataset
+    from mlcore.dataset import MotionDataset
     from transfer.style_config import split_config
 
     names = method_names(names)
@@ -246,7 +246,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
         format_table,
         run_protocol,
     )
-    from transfer.captions import NEUTRAL_STYLE, STYLES
+    from mlcore.captions import NEUTRAL_STYLE, STYLES
     from transfer.style_config import LearnConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import torch
 
+from mlcore.shipped import weights_path
 from motioncore.ik_fit import decode_via_positions
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from motioncore.skating import motion_skating
 from transfer.apply import cleanup_feet_measured
-from transfer.shipped import weights_path
 from video2style.pipeline import Clip, read_clip, write_outputs
 from video2style.result import ApplyResult
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import torch
 
+from mlcore.shipped import weights_path
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.ik_fit import conform_rolls, off_roll_convention
 from motioncore.motion import Motion, resample, time_warp, trim
@@ -17,7 +18,6 @@ from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_ca
 from motioncore.skeleton import CANONICAL
 from transfer.bundle import load_models
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
-from transfer.shipped import weights_path
 from video2style.clip_limits import check_frames, check_length
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
@@ -159,8 +159,8 @@ def elapsed(t0: float) -> str:
 
 def content_source(progress=print):
     """Neutral content motions for style learning: the dataset cache if present, else the shipped bank."""
+    from mlcore.dataset import MotionDataset
     from transfer.content_bank import ContentBank
-    from transfer.dataset import MotionDataset
     from video2style.paths import default_dataset_dir
 
     data_dir = Path(os.environ.get("VIDEO2STYLE_DATA", default_dataset_dir()))
@@ -288,9 +288,9 @@ def _announce_long_video(path: Path, span: tuple[float | None, float | None], pr
 def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0) -> tuple[Motion, tuple[float, float]]:
     """The part of a canonical example (and its normalised ``features (T, D)``) that learning uses: all of it
     up to :data:`MAX_EXAMPLE_SECONDS`, else its most typical window of that length
-    (:func:`transfer.windows.typical_window`, starts every second). Returns the motion (``canonical`` itself when
+    (:func:`mlcore.windows.typical_window`, starts every second). Returns the motion (``canonical`` itself when
     whole) and its ``(start, end)`` in seconds of the input, ``offset`` being where ``canonical`` starts there."""
-    from transfer.windows import typical_window
+    from mlcore.windows import typical_window
 
     length = int(MAX_EXAMPLE_SECONDS * canonical.fps)
     if canonical.num_frames <= length:

@@ -72,6 +72,6 @@ def run_folder_checks(args, names: list[str], inputs: list[tuple[str, Path | Non
 
 
 def data_inputs(data: Path) -> list[tuple[str, Path]]:
-    """The dataset cache a command reads: its folder and files (:func:`transfer.dataset.build_dataset` writes them)."""
+    """The dataset cache a command reads: its folder and files (:func:`mlcore.dataset.build_dataset` writes them)."""
     return [("the --data folder", data)] + [("a --data file", data / name)
                                             for name in ("features.safetensors", "clips.json", "split.json")]

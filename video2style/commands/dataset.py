@@ -1,4 +1,4 @@
-"""``video2style dataset``: the training cache from the Bandai-Namco archives (:func:`transfer.dataset.build_dataset`)."""
+"""``video2style dataset``: the training cache from the Bandai-Namco archives (:func:`mlcore.dataset.build_dataset`)."""
 from __future__ import annotations
 
 import sys
@@ -23,7 +23,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> None:
-    from transfer.dataset import build_dataset
+    from mlcore.dataset import build_dataset
 
     archives = [a for a in (args.bandai2, args.bandai1) if a is not None]
     if not archives:

@@ -17,7 +17,7 @@ def add_parser(sub) -> None:
     tc.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tc.add_argument("--out", type=Path, help="run folder (default: <cache>/runs/classifier_<target>)")
     tc.add_argument("--weights", type=Path, help="exported weights (default: classifier_<target>.safetensors in the run "
-                    "folder; name the package's transfer/weights/ file to replace the shipped ones)")
+                    "folder; name the package's mlcore/weights/ file to replace the shipped ones)")
     tc.add_argument("--max-minutes", type=positive, default=10.0, help="stop after this long; run again to resume (default: %(default)s)")
     tc.add_argument("--max-steps", type=int, default=600, help="stop at this many optimiser steps in all (default: %(default)s)")
     tc.add_argument("--threads", type=int, default=0, help="torch threads, 0 = torch's default (default: %(default)s)")

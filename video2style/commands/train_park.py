@@ -15,7 +15,7 @@ def add_parser(sub) -> None:
     tp.add_argument("--data", type=Path, default=default_dataset_dir(), help="dataset cache (default: %(default)s)")
     tp.add_argument("--out", type=Path, default=cache_dir() / "runs" / "park", help="run folder (default: %(default)s)")
     tp.add_argument("--weights", type=Path, help="exported weights (default: park_stylizer.safetensors in the run folder; "
-                    "name the package's transfer/weights/ file to replace the shipped ones)")
+                    "name the package's mlcore/weights/ file to replace the shipped ones)")
     tp.add_argument("--max-minutes", type=positive, default=60.0, help="stop after this long; run again to resume (default: %(default)s)")
     tp.add_argument("--max-steps", type=int, default=100_000, help="stop at this many optimiser steps in all (default: %(default)s)")
     tp.add_argument("--threads", type=int, default=0, help="torch threads (default: torch's choice; 1 while other work runs)")
