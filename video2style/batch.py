@@ -13,6 +13,7 @@ from pathlib import Path
 
 from motioncore.files import atomic_write_text, is_temp_name
 from motioncore.text import printable
+from video2style.options import ApplyOptions
 from video2style.paths import LOCK_NAME, check_no_links, check_outputs, inside
 from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
@@ -249,20 +250,15 @@ def batch_folder(out_dir: Path, progress):
             sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; all work is over now
 
 
-def run_batch(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-              seed: int = 0, progress=print, device: str = "cpu", rotate: int | None = None,
-              options=None) -> BatchReport:
+def run_batch(inputs, content_dir: Path, out_dir: Path, options: ApplyOptions = ApplyOptions(), learn_config=None,
+              progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
     """Styles from ``inputs`` (:func:`find_style_sources`: videos, example clips, style files, folders of videos and
     style files): a style file is used as it is; every other source's style is learned into ``out/styles/<name>.v2s``
     (and loaded from there on a later run). Results go to ``out/<name>/<clip's path under content>`` (+ previews).
-    ``options``: the apply options (:class:`video2style.options.ApplyOptions`; default: ``strength`` and ``seed``,
-    the rest as apply's defaults). An item counts as done only when its result and its preview both exist; a style
+    ``options``: the apply request (:class:`video2style.options.ApplyOptions`; default: apply's defaults). An item counts as done only when its result and its preview both exist; a style
     file in the output folder that does not load is learned again. One batch per output folder at a time. The models
     run on ``device`` (:func:`transfer.bundle.load_models`). ``rotate``: every video's frames turned this many
     degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
-    from video2style.options import ApplyOptions
-
-    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
     videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):

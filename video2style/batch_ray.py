@@ -29,6 +29,7 @@ from video2style.batch import (
     write_index,
     write_report,
 )
+from video2style.options import ApplyOptions
 
 
 def _worker() -> str:
@@ -90,11 +91,10 @@ def _apply_job(video: str, style_file: str, items: list[tuple[str, str]], option
             for clip, where in items]
 
 
-def run_batch_ray(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-                  seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
-                  retries: int = 1, progress=print, device: str = "cpu", rotate: int | None = None,
-                  options=None) -> BatchReport:
-    """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
+def run_batch_ray(inputs, content_dir: Path, out_dir: Path, options: ApplyOptions = ApplyOptions(), learn_config=None,
+                  address: str | None = None, workers: int | None = None, chunk: int = 8, retries: int = 1,
+                  progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
+    """:func:`video2style.batch.run_batch` on Ray (``options``: the apply request). ``address``: None starts a local Ray with ``workers``
     CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
     ``report.json`` (one row per item: status, seconds, worker, attempts, error). ``device``: where the
     tasks run (:func:`task_device`; a GPU task asks Ray for one GPU)."""
@@ -104,9 +104,6 @@ def run_batch_ray(inputs, content_dir: Path, out_dir: Path, strength: float = 0.
         raise RuntimeError('batch --ray needs Ray: pip install "video2style[ray]"') from None
     from tqdm import tqdm
 
-    from video2style.options import ApplyOptions
-
-    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
     videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
