@@ -17,8 +17,9 @@ def _seed(v: str):
 
 
 def _option(*flags: str, read=None, **argument) -> dict:
-    """A field's command line: ``parser.add_argument(*flags, **argument)``; ``read(args)`` gives the field's value
-    from the parsed arguments (default: the attribute of the field's name)."""
+    """A field's command line: ``parser.add_argument(*flags, **argument)``, the option's default the field's own;
+    or, with ``read(args)`` giving the field's value from the parsed arguments, an option of its own sense (a
+    ``--no-...`` flag)."""
     return {"flags": flags, "argument": argument, "read": read}
 
 
@@ -37,17 +38,17 @@ class ApplyOptions:
     FBX/glTF file's). The fields' order is the options' order in ``--help``."""
 
     strength: float = field(default=0.5, metadata=_option(
-        "--strength", type=float, default=0.5,
+        "--strength", type=float,
         help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
              "at some cost to the content (docs/RESULTS.md has the trade-off curve)"))
     tempo: str = field(default="off", metadata=_option(
-        "--tempo", default="off",
+        "--tempo",
         help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
              "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5"))
     seed: int = field(default=0, metadata=_option(
-        "--seed", type=_seed, default=0, help="noise seed: the same seed gives the same result (default: %(default)s)"))
+        "--seed", type=_seed, help="noise seed: the same seed gives the same result (default: %(default)s)"))
     neutralize: str = field(default="auto", metadata=_option(
-        "--neutralize", choices=["auto", "always", "never"], default="auto",
+        "--neutralize", choices=["auto", "always", "never"],
         help="neutralise styled content first (auto: when the motion encoder recognises a style)"))
     preview: bool = field(default=True, metadata=_option(
         "--no-preview", action="store_true", read=lambda args: not args.no_preview,
@@ -81,7 +82,8 @@ def add_apply_options(parser: argparse.ArgumentParser) -> None:
 
     for f in fields(ApplyOptions):
         if f.metadata["flags"] is not None:
-            parser.add_argument(*f.metadata["flags"], **f.metadata["argument"])
+            own = {} if f.metadata["read"] is not None else {"default": f.default}  # one default: the field's
+            parser.add_argument(*f.metadata["flags"], **own, **f.metadata["argument"])
     add_arguments(parser, formats=True)
 
 
