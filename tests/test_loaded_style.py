@@ -113,3 +113,18 @@ def test_apply_fills_the_result_and_writes_the_clip(tmp_path, monkeypatch):
     row = clip_details(result)
     assert list(row)[:3] == ["input", "output", "frames"] and row["notes"][-1].startswith("the style model barely")
     assert row["guards_held"] == ["still-pose guard left out 50% of the fast change"]
+
+
+def test_apply_reads_the_request_s_joint_map_when_it_is_not_given_read(tmp_path, monkeypatch):
+    from tests.test_hardening import _clip
+    from transfer.style_file import Style
+
+    read = []
+    monkeypatch.setattr("motioncore.retarget.load_joint_map", lambda path: read.append(path) or None)
+    monkeypatch.setattr(LoadedStyle, "stylize", lambda self, motion, request: (motion, {}))
+    style = LoadedStyle(Style({}, {}), None, torch.nn.Module())
+    clip = _clip(tmp_path / "c.bvh")
+    style.apply(clip, tmp_path / "a", ApplyOptions(preview=False, joint_map=tmp_path / "map.json"))
+    style.apply(clip, tmp_path / "b", ApplyOptions(preview=False, joint_map=tmp_path / "map.json"), joint_map={})
+    style.apply(clip, tmp_path / "c", ApplyOptions(preview=False))
+    assert read == [tmp_path / "map.json"]  # read once: the caller's map is used as it is

@@ -98,8 +98,10 @@ class LoadedStyle:
         :func:`transfer.tempo.resolve_tempo`): the clip is first time-warped to play this many times as fast
         (0.7: slower, more frames; the path is the same). A BVH take longer than
         :data:`video2style.long_takes.LONG_TAKE_SECONDS` at tempo 1 is applied a span at a time
-        (:func:`video2style.long_takes.apply_long_bvh`). ``joint_map``: ``request.joint_map`` as read
-        (:func:`motioncore.retarget.load_joint_map`; the caller reads it once, before any work)."""
+        (:func:`video2style.long_takes.apply_long_bvh`). ``joint_map``: the map ``request.joint_map`` names, as read
+        (:func:`motioncore.retarget.load_joint_map`) by a caller that reads it once before any work, as the commands
+        do; None: read here."""
+        from motioncore.retarget import load_joint_map
         from transfer.tempo import resolve_tempo
         from video2style.long_takes import (
             LONG_TAKE_SECONDS,
@@ -117,6 +119,8 @@ class LoadedStyle:
         from video2style.summary import motion_change
 
         t0 = time.time()
+        if joint_map is None and request.joint_map is not None:
+            joint_map = load_joint_map(request.joint_map)
         speed = resolve_tempo(self.style, request.tempo)
         long_take = Path(path).suffix.lower() == BVH_SUFFIX and is_long_take(path)
         if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
