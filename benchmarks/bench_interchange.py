@@ -5,7 +5,7 @@
 Builds clips of the generated rig corpus (Mixamo, UE5 mannequin, Rigify conventions) as FBX and GLB with
 Blender (video2style.interchange), then in one Converter (one Blender process), as a batch does:
 Blender's start, reading each clip to BVH, and writing a result back onto the clip's own file; beside that
-the time `apply_file` takes on the same clip as `batch` calls it (a zero style: the full diffusion,
+the time `LoadedStyle.apply` takes on the same clip as `batch` calls it (a zero style: the full diffusion,
 cleanup and preview cost). Also the
 largest joint gap of BVH -> file -> BVH and of the result keyed back onto the file (mm).
 Needs Blender with numpy (or the bpy module); no data from ../shared.
@@ -39,14 +39,15 @@ def gap_mm(a: Path, b: Path) -> float:
 def zero_style(folder: Path):
     from transfer.bundle import load_models
     from transfer.lora import add_lora, lora_state
-    from transfer.style_file import Style, style_model
+    from transfer.style_file import Style
 
     model = copy.deepcopy(load_models().prior)
     add_lora(model, rank=8)
     path = folder / "zero.v2s"
     Style({k: torch.zeros_like(v) for k, v in lora_state(model).items()}, {"style": "zero", "rank": 8}).save(path)
-    style = Style.load(path)
-    return style, style_model(load_models().prior, style)
+    from video2style.loaded_style import LoadedStyle
+
+    return LoadedStyle.from_file(path)
 
 
 def main() -> None:
@@ -56,12 +57,12 @@ def main() -> None:
     ap.add_argument("--formats", nargs="+", default=["fbx", "glb"])
     args = ap.parse_args()
     torch.set_num_threads(1)
-    from video2style.pipeline import apply_file
+    from video2style.options import ApplyOptions
 
     rigs = ["mixamo", "ue5", "rigify"]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        style, model = zero_style(tmp)
+        style = zero_style(tmp)
         with Converter() as maker:  # the inputs (not timed)
             clips = {}
             for fmt in args.formats:
@@ -74,7 +75,7 @@ def main() -> None:
                     write_bvh(bvh, from_canonical(motion, make_rig(c.skeleton)), c.layout)
                     clips.setdefault(fmt, []).append((rig, bvh, maker.write(bvh, bvh.with_suffix(f".{fmt}"))))
         print(f"{args.clips} clips per format of {args.seconds:g} s at 30 fps (rigs {', '.join(rigs)}), 1 torch thread")
-        print("| format | Blender start s | read clip -> BVH s (median) | apply_file s (median) | write result -> file s (median) "
+        print("| format | Blender start s | read clip -> BVH s (median) | apply s (median) | write result -> file s (median) "
               "| conversion share of a clip | BVH->file->BVH max gap mm | result on file max gap mm |")
         print("|---|---:|---:|---:|---:|---:|---:|---:|")
         for fmt, items in clips.items():
@@ -92,12 +93,12 @@ def main() -> None:
                 gaps.append(gap_mm(bvh, back))
                 out = tmp / "out" / fmt / rig
                 t = time.perf_counter()
-                info = apply_file(style, model, back, out, 0.5, 0)  # as batch runs it: preview included
+                info = style.apply(back, out, ApplyOptions(strength=0.5, seed=0))  # as batch runs it: preview included
                 applies.append(time.perf_counter() - t)
                 t = time.perf_counter()
-                written = conv.write(info["output"], Path(info["output"]).with_suffix(f".{fmt}"), source=clip)
+                written = conv.write(info.output, Path(info.output).with_suffix(f".{fmt}"), source=clip)
                 writes.append(time.perf_counter() - t)
-                gaps_back.append(gap_mm(Path(info["output"]), conv.to_bvh(written)))
+                gaps_back.append(gap_mm(Path(info.output), conv.to_bvh(written)))
             conv.close()
             read_med = statistics.median(reads)
             start_only = start - read_med

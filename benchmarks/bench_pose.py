@@ -76,9 +76,9 @@ def accuracy(args) -> None:
     from lifting.reconstruct import lift_track
     from lifting.render_humanoid import frame_camera, write_humanoid_video
     from lifting.tracking import track
+    from mlcore.dataset import MotionDataset
     from motioncore.motion import resample
     from motioncore.representation import decode
-    from transfer.dataset import MotionDataset
 
     ds = MotionDataset(Path(args.data), "test")
     tracker = PoseTracker()
@@ -131,11 +131,11 @@ def fit(args) -> None:
     import torch
 
     torch.set_num_threads(1)
+    from mlcore.dataset import MotionDataset
     from motioncore import quat
     from motioncore.ik_fit import fit_positions
     from motioncore.representation import FEATURES, decode, encode
     from motioncore.skeleton import CANONICAL
-    from transfer.dataset import MotionDataset
 
     ds = MotionDataset(Path(args.data), "test")
     sk = CANONICAL.skeleton
@@ -194,9 +194,9 @@ def _walking_video(path: Path, frames: int) -> Path:
     exists, else the synthetic stick figure of ``testkit.synthetic_blazepose``)."""
     try:
         from lifting.render_humanoid import frame_camera, write_humanoid_video
+        from mlcore.dataset import MotionDataset
         from motioncore.motion import resample
         from motioncore.representation import decode
-        from transfer.dataset import MotionDataset
 
         ds = MotionDataset(REPO / "cache" / "dataset", "test")
         i = next(k for k, r in enumerate(ds.records) if r.content == "walk" and not r.mirrored)

@@ -55,8 +55,9 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from transfer.bundle import load_models
-    from transfer.style_file import Style, style_model
-    from video2style.pipeline import apply_file, learn_file
+    from video2style.loaded_style import LoadedStyle
+    from video2style.options import ApplyOptions
+    from video2style.pipeline import learn_file
 
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
@@ -79,8 +80,7 @@ def main() -> None:
         size = (work / "elderly.v2s").stat().st_size
         print(f"style file: {size / 1024:.0f} KiB  target <= 1024 KiB")
 
-        style = Style.load(work / "elderly.v2s")
-        model = style_model(load_models(args.device).prior, style)
+        style = LoadedStyle.from_file(work / "elderly.v2s", device=args.device)
         for label, kw in [("apply, no preview", {"preview": False, "neutralize": "never"}),
                           ("apply, content recognised first (auto)", {"preview": False, "neutralize": "auto"}),
                           ("apply, neutralised first (styled content)", {"preview": False, "neutralize": "always"}),
@@ -88,7 +88,7 @@ def main() -> None:
             times = []
             for _ in range(args.repeats):
                 t0 = time.perf_counter()
-                apply_file(style, model, bvh, work / "out", 0.5, **kw)
+                style.apply(bvh, work / "out", ApplyOptions(strength=0.5, **kw))
                 times.append(time.perf_counter() - t0)
             print(f"{label} ({args.seconds:g} s clip, 30 fps BVH in and out, cleanup included): "
                   f"best {min(times):.2f} s, mean {sum(times) / len(times):.2f} s" + ("  target <= 1 s" if label.startswith("apply, no") else ""))

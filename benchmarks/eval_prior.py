@@ -24,12 +24,12 @@ from pathlib import Path
 import torch
 
 from evaluation.metrics import frechet_distance
+from mlcore.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
+from mlcore.dataset import MotionDataset
 from motioncore.render import Panel, render_video
 from motioncore.representation import decode, decode_positions
 from motioncore.skating import foot_skating_ratio
 from motioncore.skeleton import CANONICAL
-from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
-from transfer.dataset import MotionDataset
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
 MAX_FRAMES = 160
@@ -135,8 +135,8 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from evaluation.classifiers import default_weights, load_classifier
+    from mlcore.shipped import weights_path
     from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
-    from transfer.shipped import weights_path
 
     if not (args.data / "features.safetensors").is_file():
         raise SystemExit(f"{args.data}: no dataset cache (video2style dataset ...)")

@@ -5,7 +5,7 @@
 
 learn: ``learn_file`` on a synthetic ``--seconds`` BVH (a smooth random walk, 20 fps), ``--iterations`` iterations,
 once as it is now (the most typical 20 s of the input) and once with the bound lifted (the whole input, as before);
-prints each run's seconds for the pair, the iterations and in all. apply: ``apply_file`` on a 1 s clip with a style
+prints each run's seconds for the pair, the iterations and in all. apply: ``LoadedStyle.apply`` on a 1 s clip with a style
 whose stored example is the whole long input (a style file learned before the bound), its preview's example panel
 capped to the clip (now) and uncapped (before). ``--choose-only``: a ``--seconds`` take at ``--fps`` read and its
 part chosen, as learn does before learning (time and the process's peak memory). Run from the repository root (it
@@ -25,7 +25,7 @@ from motioncore.skeleton import CANONICAL
 from testkit.motions import random_motion
 from transfer.bundle import load_models
 from transfer.style_config import LearnConfig
-from transfer.style_file import Style, style_model
+from transfer.style_file import Style
 from video2style import pipeline
 
 
@@ -49,13 +49,15 @@ def learn(clip: Path, out: Path, iterations: int, whole: bool) -> dict:
 
 
 def apply(style: Style, clip: Path, out: Path, capped: bool) -> float:
-    model = style_model(load_models().prior, style)
+    from video2style.loaded_style import LoadedStyle
+
+    loaded = LoadedStyle.from_style(style)
     real = pipeline.example_motion
     if not capped:
         pipeline.example_motion = lambda s, frames=None: real(s)
     try:
         t0 = time.time()
-        pipeline.apply_file(style, model, clip, out)
+        loaded.apply(clip, out)
         return time.time() - t0
     finally:
         pipeline.example_motion = real

@@ -26,10 +26,10 @@ def main() -> None:
     args = ap.parse_args()
 
     from benchmarks.prior_gait import gait
+    from mlcore.dataset import MotionDataset
     from motioncore.representation import decode
     from motioncore.retarget import place_on_floor
     from transfer.bundle import load_models
-    from transfer.dataset import MotionDataset
     from transfer.learn import neutral_pair
     from transfer.style_config import LearnConfig
     from video2style.paths import default_dataset_dir

@@ -25,12 +25,12 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
+    from mlcore.captions import BANDAI2_CONTENTS
+    from mlcore.dataset import MotionDataset
     from motioncore.render import Panel, render_video
     from motioncore.representation import decode
     from motioncore.skeleton import CANONICAL
     from park.infer import pairwise_diversity, stylize_noise
-    from transfer.captions import BANDAI2_CONTENTS
-    from transfer.dataset import MotionDataset
     from video2style.park_apply import park_model
 
     model = park_model(args.weights)

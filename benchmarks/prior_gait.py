@@ -42,7 +42,7 @@ def gait(motion=None, gpos=None, fps: float = 20.0) -> tuple[float, float]:
 @functools.cache
 def _training_data():
     """The dataset cache's train split (read once)."""
-    from transfer.dataset import MotionDataset
+    from mlcore.dataset import MotionDataset
     from video2style.paths import default_dataset_dir
 
     return MotionDataset(default_dataset_dir(), "train")
@@ -64,11 +64,11 @@ def main() -> None:
     args = ap.parse_args()
     import torch
 
+    from mlcore.shipped import weights_path
     from motioncore.representation import decode, decode_positions
     from motioncore.retarget import place_on_floor
     from transfer.bundle import ENCODER_FILE, MethodBundle, load_models
     from transfer.content_bank import DATA_FRAMES
-    from transfer.shipped import weights_path
     from video2style.pipeline import read_clip
 
     m = MethodBundle.from_pretrained((args.prior, weights_path(ENCODER_FILE))) if args.prior else load_models()

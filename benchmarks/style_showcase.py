@@ -68,9 +68,9 @@ def main() -> None:
     args = ap.parse_args()
 
     from evaluation.classifiers import default_weights, load_classifier, run_batched
+    from mlcore.dataset import MotionDataset
     from motioncore.representation import decode, encode
     from transfer.bundle import load_models
-    from transfer.dataset import MotionDataset
     from transfer.spans import stylize_motion
     from transfer.style_file import Style, style_model
     from video2style.paths import default_dataset_dir

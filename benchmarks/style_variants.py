@@ -32,10 +32,10 @@ def main() -> None:
     torch.set_num_threads(args.threads)
 
     from evaluation.classifiers import default_weights, load_classifier
+    from mlcore.dataset import MotionDataset
     from motioncore.representation import encode
     from transfer.apply import apply_style_features
     from transfer.bundle import load_models
-    from transfer.dataset import MotionDataset
     from transfer.learn import learn_style
     from transfer.style_config import split_config
     from transfer.style_file import style_model

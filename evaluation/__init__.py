@@ -9,5 +9,5 @@ The prior's and the motion encoder's own evidence of quality is measured by ``be
 Park et al. 2021's stylizer, the comparison method, is its own package :mod:`park` (users reach it through
 ``video2style apply --method park``).
 
-Imports go one way: motioncore <- transfer <- park <- evaluation <- video2style.
+Imports go one way: motioncore <- mlcore <- transfer, park <- evaluation <- video2style.
 """

@@ -30,6 +30,12 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.nn import functional as F
 
+from mlcore.captions import BANDAI2_CONTENTS
+from mlcore.checkpoints import load_config, save_model
+from mlcore.dataset import LABELS, MotionDataset, labelled_clips
+from mlcore.device import model_device, resolve_device
+from mlcore.shipped import weights_dir
+from mlcore.training import Trainer
 from motioncore.representation import FEATURES
 from park.graph import (
     GRAPH_CHANNELS,
@@ -39,16 +45,10 @@ from park.graph import (
     masked_mean,
     valid_to_mask,
 )
-from transfer.captions import BANDAI2_CONTENTS
-from transfer.checkpoints import load_config, save_model
-from transfer.dataset import LABELS, MotionDataset, labelled_clips
-from transfer.device import model_device, resolve_device
-from transfer.shipped import weights_dir
-from transfer.training import Trainer
 
 
 def default_weights(target: str) -> Path:
-    """``classifier_{target}.safetensors`` in :func:`transfer.shipped.weights_dir`."""
+    """``classifier_{target}.safetensors`` in :func:`mlcore.shipped.weights_dir`."""
     return weights_dir() / f"classifier_{target}.safetensors"
 
 
@@ -221,7 +221,7 @@ def train_classifier(data_dir: Path, out_dir: Path, target: str = "content", max
     Stops at ``max_steps`` or after ``max_minutes`` (this call), exports the EMA weights to
     ``weights_path`` (default :func:`default_weights`) with a JSON model card holding the test
     accuracy and confusion matrix, and returns that card.
-    ``device``: auto, cpu or cuda (:func:`transfer.device.resolve_device`); the exported weights are CPU tensors.
+    ``device``: auto, cpu or cuda (:func:`mlcore.device.resolve_device`); the exported weights are CPU tensors.
     """
     if target not in LABELS:
         raise ValueError(f"train_classifier: target must be one of {sorted(LABELS)}, got {target!r}")

@@ -47,8 +47,8 @@ class RealClip:
 def read_archive(path: Path, actions: Sequence[str] = DEV_ACTIONS) -> list[RealClip]:
     """The Bandai-1 clips of these ``actions`` in a ``.tar.xz`` (either archive), on the canonical skeleton at
     its frame rate, sorted by name."""
+    from mlcore.dataset import canonical_features
     from motioncore.skeleton import CANONICAL
-    from transfer.dataset import canonical_features
 
     clips = []
     with tarfile.open(path, mode="r:*") as tar:

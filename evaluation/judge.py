@@ -20,10 +20,10 @@ from pathlib import Path
 
 import torch
 
+from mlcore.captions import STYLES
+from mlcore.dataset import MotionDataset
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
-from transfer.captions import STYLES
-from transfer.dataset import MotionDataset
 
 JUDGE_WEIGHT_DECAY = 1e-3  # L2 on the logistic regression's weights (standardised features)
 TOWARD_MARGIN = 1e-3  # a distance must shrink by more than this share to count as a move (not float round-off)

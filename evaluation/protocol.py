@@ -44,10 +44,10 @@ from evaluation.metrics import (
     frechet_distance,
     limb_stray,
 )
+from mlcore.captions import BANDAI2_CONTENTS, STYLES
+from mlcore.dataset import ClipRecord, MotionDataset
 from motioncore.representation import decode_positions
 from motioncore.skating import foot_skating_ratio
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.dataset import ClipRecord, MotionDataset
 
 Method = Callable[[torch.Tensor, torch.Tensor, str, str], torch.Tensor]
 

@@ -6,5 +6,6 @@ the project's second method (``video2style apply --method park``, ``train-park``
 ``networks`` (G, E, F, D), ``losses`` (eq. 7-12), ``train`` (:func:`train_park`), ``infer``
 (:func:`load_park`, :func:`stylize_noise`, :func:`stylize_reference`, :func:`mix` and :func:`mixed_code`, :func:`park_method`).
 
-Imports go one way: motioncore <- transfer <- park <- evaluation <- video2style.
+Imports go one way: motioncore <- mlcore <- park <- evaluation <- video2style; park and transfer are
+siblings over mlcore.
 """

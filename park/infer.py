@@ -15,17 +15,17 @@ from pathlib import Path
 import torch
 from safetensors.torch import load_file
 
+from mlcore.checkpoints import load_config
+from mlcore.device import model_device, resolve_device
 from motioncore.representation import FEATURES, decode_positions
 from park.networks import ParkConfig, ParkModel
-from transfer.checkpoints import load_config
-from transfer.device import model_device, resolve_device
 
 ROOT_SLICES = (FEATURES.root_rvel, FEATURES.root_lvel)
 
 
 def load_park(path: Path | str, device: str | torch.device = "cpu") -> ParkModel:
     """G, E, F from safetensors (config in the metadata; nothing is unpickled), in eval mode on ``device``
-    (``"auto"``, ``"cpu"``, ``"cuda"``: :func:`transfer.device.resolve_device`). The functions below take
+    (``"auto"``, ``"cpu"``, ``"cuda"``: :func:`mlcore.device.resolve_device`). The functions below take
     inputs on any device and return results on the input's device (codes on the model's)."""
     path = Path(path)
     if not path.is_file():
@@ -66,7 +66,7 @@ def code_from_reference(model: ParkModel, reference: torch.Tensor, style_label: 
 @torch.no_grad()
 def generate(model: ParkModel, content: torch.Tensor, code: torch.Tensor, overlap: int | None = None) -> torch.Tensor:
     """``G(content, code)`` over windows (overlap default: a quarter window) with crossfades; the content's root velocities are kept. -> ``(T, D)``."""
-    from transfer.windows import crossfade, window_starts
+    from mlcore.windows import crossfade, window_starts
 
     if content.ndim != 2 or content.shape[1] != model.config.feature_dim:
         raise ValueError(f"content: expected (T, {model.config.feature_dim}), got {tuple(content.shape)}")

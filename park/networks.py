@@ -24,6 +24,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from mlcore.captions import STYLES
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
 from park.graph import (
@@ -39,7 +40,6 @@ from park.graph import (
     pooled_graph,
     skeleton_edges,
 )
-from transfer.captions import STYLES
 
 _N = CANONICAL.skeleton.index
 LEVEL1_GROUPS = [[_N(a) for a in g] for g in (

@@ -19,14 +19,14 @@ from pathlib import Path
 
 import torch
 
+from mlcore.checkpoints import RunCheckpoint, save_model
+from mlcore.dataset import MotionDataset, labelled_clips
+from mlcore.device import resolve_device
+from mlcore.shipped import weights_dir
+from mlcore.training import train_loop, update_ema
 from motioncore.representation import FEATURES
 from park.losses import LossWeights, d_loss, g_loss
 from park.networks import Discriminator, ParkConfig, ParkModel, he_init
-from transfer.checkpoints import RunCheckpoint, save_model
-from transfer.dataset import MotionDataset, labelled_clips
-from transfer.device import resolve_device
-from transfer.shipped import weights_dir
-from transfer.training import train_loop, update_ema
 
 
 def default_weights() -> Path:
@@ -170,11 +170,11 @@ def train_park(data_dir: Path, out_dir: Path, config: ParkTrainConfig | None = N
                device: str = "cpu") -> dict:
     """Train (or resume) on the Bandai-2 train split until ``max_steps`` or ``max_minutes`` (this call).
 
-    ``device``: auto, cpu or cuda (:func:`transfer.device.resolve_device`); the exported weights are CPU tensors.
+    ``device``: auto, cpu or cuda (:func:`mlcore.device.resolve_device`); the exported weights are CPU tensors.
     ``init_path``: exported weights (G/E/F) to start a *new* run from (fine-tuning, e.g. with another
     ``weights.ds``); D starts fresh. Ignored when ``out_dir`` already holds a checkpoint.
 
-    Exports the EMA G/E/F to ``weights_path`` (default ``transfer/weights/park_stylizer.safetensors``)
+    Exports the EMA G/E/F to ``weights_path`` (default ``mlcore/weights/park_stylizer.safetensors``)
     with a JSON model card, and returns the card. Threads: set ``torch.set_num_threads`` before calling.
     """
     config = config or ParkTrainConfig()

@@ -2,7 +2,7 @@
 
     python samples/make_samples.py                 # content clips + the style video
     python samples/make_samples.py --seed 3        # other draws (default 2)
-    python samples/make_samples.py --content-bank  # also the shipped content bank (transfer/weights)
+    python samples/make_samples.py --content-bank  # also the shipped content bank (mlcore/weights)
 
 Content clips are text-to-motion samples of the project's diffusion prior (neutral style; the project's
 ``transfer.sampling.TextToMotion`` settings), their rotations fitted to the samples' joint-position channels
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--from-rotations", action="store_true", help="decode the samples' rotation channels")
     ap.add_argument("--content-bank", action="store_true",
                     help="also remake the content bank that learning uses without a dataset cache "
-                         "(transfer/weights/content_bank.safetensors and its card) from the shipped prior")
+                         "(mlcore/weights/content_bank.safetensors and its card) from the shipped prior")
     args = ap.parse_args(argv)
     torch.manual_seed(args.seed)
     if args.content_bank:
@@ -79,10 +79,10 @@ def write_content_bank(per_content: int = 4, length: int = 80, seed: int = 0) ->
     import time
     from dataclasses import asdict
 
+    from mlcore.shipped import weights_path
     from motioncore.files import atomic_write_text
     from transfer.content_bank import make_content_bank
     from transfer.sampling import TEXT_TO_MOTION
-    from transfer.shipped import weights_path
     from video2style.pipeline import load_models
 
     models, settings = load_models(), TEXT_TO_MOTION

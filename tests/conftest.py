@@ -52,9 +52,12 @@ def fake_pipeline(monkeypatch):
             raise ValueError(f"{path}: not a style file")
         return FakeStyle()
 
-    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
+    def apply(self, clip, out_dir, request, joint_map=None):
+        from video2style.result import ApplyResult
+
         calls["apply"].append(str(clip))
-        calls.setdefault("apply_args", []).append((strength, seed, *rest))
+        calls.setdefault("apply_args", []).append((request.strength, request.seed, request.neutralize, joint_map,
+                                                   request.preview, request.tempo))
         out_dir.mkdir(parents=True, exist_ok=True)
         bvh = out_dir / f"{clip.stem}.bvh"
         bvh.write_text("bvh")
@@ -62,10 +65,10 @@ def fake_pipeline(monkeypatch):
             raise KeyboardInterrupt  # killed between the BVH and its preview
         preview = out_dir / f"{clip.stem}_preview.mp4"
         preview.write_text("mp4")
-        return {"output": str(bvh), "preview": str(preview)}
+        return ApplyResult(str(clip), [str(bvh)], preview=str(preview))
 
     monkeypatch.setattr("video2style.pipeline.learn_file", learn_file)
-    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
+    monkeypatch.setattr("video2style.loaded_style.LoadedStyle.apply", apply)
     monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)

@@ -11,10 +11,10 @@ import pytest
 import torch
 
 from evaluation.classifiers import ClassifierConfig, MotionClassifier
+from mlcore.checkpoints import save_model
 from motioncore.bvh import BvhLayout, write_bvh
 from motioncore.skeleton import CANONICAL
 from testkit.motions import random_motion
-from transfer.checkpoints import save_model
 from transfer.denoiser import Denoiser, DenoiserConfig
 from transfer.lora import LoRALinear, add_lora, lora_state
 from transfer.style_config import LearnConfig
@@ -58,16 +58,18 @@ def fake_apply(monkeypatch, gate: threading.Event | None = None, started: thread
         s.meta = {"style": Path(path).name}
         return s
 
-    def apply_file(style, model, clip, out_dir, strength, seed, *rest):
+    def apply(self, clip, out_dir, request, joint_map=None):
+        from video2style.result import ApplyResult
+
         out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / f"{clip.stem}.bvh").write_text(style.meta["style"])
+        (out_dir / f"{clip.stem}.bvh").write_text(self.style.meta["style"])
         if started is not None:
             started.set()
             gate.wait(30)
-        (out_dir / f"{clip.stem}_preview.mp4").write_text(style.meta["style"])
-        return {"output": str(out_dir / f"{clip.stem}.bvh"), "frames": 20, "seconds_transfer": 0.0}
+        (out_dir / f"{clip.stem}_preview.mp4").write_text(self.style.meta["style"])
+        return ApplyResult(str(clip), [str(out_dir / f"{clip.stem}.bvh")], frames=20, seconds_transfer=0.0)
 
-    monkeypatch.setattr("video2style.pipeline.apply_file", apply_file)
+    monkeypatch.setattr("video2style.loaded_style.LoadedStyle.apply", apply)
     monkeypatch.setattr("transfer.bundle.load_models", lambda device="cpu": type("M", (), {"prior": None})())
     monkeypatch.setattr("transfer.style_file.Style.load", staticmethod(load))
     monkeypatch.setattr("transfer.style_file.style_model", lambda prior, style: None)
@@ -81,6 +83,7 @@ def write_clip(path: Path, seconds: float = 1.0) -> Path:
 class FakeStyle:
     def __init__(self):
         self.meta = {}
+        self.source = None
 
 
 def make_library(tmp_path: Path) -> tuple[Path, Path]:

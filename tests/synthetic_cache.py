@@ -8,10 +8,10 @@ from pathlib import Path
 import torch
 from safetensors.torch import save_file
 
+from mlcore.captions import caption
+from mlcore.dataset import STD_FLOOR, ClipRecord
 from motioncore.representation import encode
 from testkit.motions import random_motion
-from transfer.captions import caption
-from transfer.dataset import STD_FLOOR, ClipRecord
 
 
 def write_synthetic_cache(out_dir: Path, contents=("walk", "wave-left-hand"), styles=("normal", "elderly"),

@@ -7,6 +7,7 @@ import math
 import pytest
 import torch
 
+from mlcore.dataset import MotionDataset
 from motioncore.representation import FEATURES
 from tests.helpers import toy_learn_config
 from transfer.amount import (
@@ -16,7 +17,6 @@ from transfer.amount import (
     describe_amount,
     style_distance,
 )
-from transfer.dataset import MotionDataset
 from transfer.learn import learn_style
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
 from transfer.style_file import Style, validate_meta

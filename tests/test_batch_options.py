@@ -142,11 +142,12 @@ def test_batch_prints_a_line_per_clip_and_its_report_holds_the_numbers(quick_sty
 
 
 def test_the_line_names_the_guards_that_held_the_style_back():
+    from video2style.result import ApplyResult
     from video2style.summary import clip_line
 
-    line = clip_line({"frames": 80, "file_frames": 119, "file_fps": 30.0, "skating_content": 0.0, "skating_after": 0.2,
-                      "still_share": 0.91, "arm_motion_share": 0.03, "content_share": 0.999, "neutralized": True,
-                      "change": {"joints_cm": 2.4, "most": "legs", "shows": "lightly"}})
+    line = clip_line(ApplyResult("c.bvh", frames=80, file_frames=119, file_fps=30.0, skating_content=0.0,
+                                 skating_after=0.2, still_share=0.91, arm_motion_share=0.03, content_share=0.999,
+                                 neutralized=True, change={"joints_cm": 2.4, "most": "legs", "shows": "lightly"}))
     assert line == ("119 frames at 30 fps, 3.97 s; style shows lightly (joints moved 2.4 cm on average, most in the "
                     "legs); neutralised first; feet slide in 0% of frames before, 20% after; held back: still-pose "
                     "guard left out 9% of the fast change; arms kept their own motion (3% of the style's)")

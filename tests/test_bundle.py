@@ -6,10 +6,10 @@ from pathlib import Path
 import pytest
 import torch
 
+from mlcore.shipped import weights_path
 from motioncore.representation import FEATURES
 from tests.helpers import tiny_denoiser
 from transfer.bundle import ENCODER_FILE, PRIOR_FILE, MethodBundle, load_models
-from transfer.shipped import weights_path
 
 
 def test_the_bundle_normalises_as_the_hand_written_formulas_did_and_builds_its_scheduler():

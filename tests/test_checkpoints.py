@@ -8,8 +8,8 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
-from transfer.checkpoints import RunCheckpoint, optimizer_path
-from transfer.training import update_ema
+from mlcore.checkpoints import RunCheckpoint, optimizer_path
+from mlcore.training import update_ema
 
 
 @dataclass
@@ -110,7 +110,7 @@ def test_update_ema_warms_up_then_follows_decay():
 
 
 def test_lr_factor_warms_up_holds_then_decays_to_its_floor():
-    from transfer.training import lr_factor
+    from mlcore.training import lr_factor
 
     assert lr_factor(0, warmup=4) == 0.25
     assert lr_factor(3, warmup=4) == 1.0

@@ -15,10 +15,10 @@ from evaluation.classifiers import (
     train_classifier,
 )
 from evaluation.metrics import recognition_accuracy
+from mlcore.captions import BANDAI2_CONTENTS, STYLES
+from mlcore.dataset import labelled_clips
 from motioncore.representation import FEATURES
 from tests.synthetic_cache import write_synthetic_cache
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.dataset import labelled_clips
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 

@@ -6,11 +6,11 @@ import json
 import pytest
 import torch
 
+from mlcore.checkpoints import save_model
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.skeleton import CANONICAL
 from park.networks import ParkConfig, ParkModel
 from testkit.motions import random_motion
-from transfer.checkpoints import save_model
 from video2style.cli import main
 
 
@@ -113,9 +113,9 @@ def test_pose_of_a_non_video_names_the_file(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_evaluate_identity_and_park_on_a_tiny_cache(tmp_path, park_weights, monkeypatch):
+    from mlcore.captions import BANDAI2_CONTENTS, STYLES
     from tests.helpers import random_classifier
     from tests.synthetic_cache import write_synthetic_cache
-    from transfer.captions import BANDAI2_CONTENTS, STYLES
     from video2style import park_apply
     from video2style.evaluate import evaluate
 

@@ -6,12 +6,12 @@ import statistics
 import pytest
 import torch
 
+from mlcore.captions import BANDAI2_CONTENTS
+from mlcore.dataset import MotionDataset
 from motioncore.representation import FEATURES
 from tests.helpers import tiny_denoiser
 from transfer.bundle import MethodBundle
-from transfer.captions import BANDAI2_CONTENTS
 from transfer.content_bank import DATA_FRAMES, ContentBank, make_content_bank
-from transfer.dataset import MotionDataset
 from transfer.sampling import TextToMotion
 from video2style.paths import default_dataset_dir
 

@@ -4,9 +4,9 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from mlcore.captions import BANDAI2_CONTENTS, STYLES, caption
 from motioncore.representation import FEATURES
 from transfer.apply import CONTENT_KEEP_SHARES, content_probabilities, keep_content
-from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
 
 N_CONTENTS = len(BANDAI2_CONTENTS)
 

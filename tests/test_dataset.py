@@ -6,12 +6,12 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
+from mlcore.captions import caption
+from mlcore.dataset import MotionDataset, build_dataset
 from motioncore.bvh import BvhLayout, format_bvh
 from motioncore.representation import FEATURES
 from motioncore.retarget import from_canonical, make_rig
 from testkit.motions import CANONICAL_NAMES_MAP, bandai_like_skeleton, random_motion
-from transfer.captions import caption
-from transfer.dataset import MotionDataset, build_dataset
 
 
 def _fake_bandai(path, contents=("walk", "wave-left-hand"), styles=("normal", "elderly"), per_cell=12):

@@ -10,9 +10,9 @@ import sys
 import pytest
 import torch
 
+from mlcore.device import DEVICES, resolve_device
+from mlcore.shipped import SHIPPED
 from motioncore.representation import FEATURES
-from transfer.device import DEVICES, resolve_device
-from transfer.shipped import SHIPPED
 from video2style.demo import SAMPLES
 
 
@@ -36,7 +36,7 @@ def test_device_names_resolve_in_one_place(no_gpu, monkeypatch):
 
 
 def test_the_device_names_import_without_torch():
-    code = "import sys, transfer.device as d; assert 'torch' not in sys.modules; print(','.join(d.DEVICES))"
+    code = "import sys, mlcore.device as d; assert 'torch' not in sys.modules; print(','.join(d.DEVICES))"
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
     assert out.strip() == ",".join(DEVICES)
 

@@ -11,12 +11,12 @@ from evaluation.protocol import (
     run_protocol,
     select_protocol,
 )
+from mlcore.captions import BANDAI2_CONTENTS, STYLES
+from mlcore.dataset import ClipRecord, MotionDataset
 from motioncore.representation import FEATURES
 from motioncore.skeleton import CANONICAL
 from tests.helpers import random_classifier
 from tests.synthetic_cache import write_synthetic_cache
-from transfer.captions import BANDAI2_CONTENTS, STYLES
-from transfer.dataset import ClipRecord, MotionDataset
 
 REAL_CACHE = Path(__file__).resolve().parents[1] / "cache" / "dataset"
 

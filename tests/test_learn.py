@@ -4,9 +4,9 @@ from __future__ import annotations
 import pytest
 import torch
 
+from mlcore.dataset import MotionDataset
 from motioncore.representation import FEATURES
 from tests.helpers import toy_learn_config
-from transfer.dataset import MotionDataset
 from transfer.learn import learn_style, partial_reason
 from transfer.style_config import ApplyConfig
 from transfer.style_file import style_model

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 import transfer.apply as apply_mod
+from mlcore.windows import crossfade, window_starts
 from motioncore.representation import FEATURES
 from tests.helpers import tiny_denoiser, trained_style
 from transfer.bundle import MethodBundle
@@ -15,7 +16,6 @@ from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
 from transfer.style_config import ApplyConfig, LearnConfig
 from transfer.style_file import style_model
-from transfer.windows import crossfade, window_starts
 
 
 def blend_whole_list(chunks: list[torch.Tensor], starts: list[int], n: int) -> torch.Tensor:
@@ -81,7 +81,7 @@ def test_crossfade_takes_windows_as_they_come():
 
 @pytest.mark.parametrize("pieces", [[333], [1, 79, 100, 153], [40] * 8 + [13], [200, 0, 133]])
 def test_window_stream_fed_in_pieces_blends_as_crossfade(pieces):
-    from transfer.windows import WindowStream
+    from mlcore.windows import WindowStream
 
     n, starts = 333, window_starts(333, 80, 20)
     values = torch.randn(n, 5, generator=torch.Generator().manual_seed(4))

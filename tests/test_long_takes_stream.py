@@ -10,11 +10,11 @@ import pytest
 import torch
 
 import transfer.apply as apply_mod
+from mlcore.shipped import SHIPPED as WEIGHTS
 from motioncore.bvh import BvhError, read_bvh, write_bvh
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
 from motioncore.motion import Motion, resample, resample_span
 from testkit.motions import cmu_like_skeleton
-from transfer.shipped import SHIPPED as WEIGHTS
 from video2style import long_takes
 
 
@@ -114,11 +114,10 @@ shipped = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), r
 
 
 @pytest.fixture(scope="module")
-def style_and_model(tmp_path_factory):
-    from transfer.bundle import load_models
+def loaded_style(tmp_path_factory):
     from transfer.style_config import LearnConfig
-    from transfer.style_file import Style, style_model
     from video2style.demo import SAMPLES
+    from video2style.loaded_style import LoadedStyle
     from video2style.pipeline import learn_file
 
     torch.set_num_threads(1)
@@ -130,70 +129,69 @@ def style_and_model(tmp_path_factory):
                    progress=lambda s: None, allow_partial=True)
     finally:
         mp.undo()
-    style = Style.load(out)
-    return style, style_model(load_models().prior, style)
+    return LoadedStyle.from_file(out)
 
 
 @pytest.mark.slow
 @shipped
 @pytest.mark.parametrize("neutralize", ["never", "always"])
-def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, style_and_model, neutralize):
-    from video2style.pipeline import apply_file
+def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, loaded_style, neutralize):
+    from video2style.options import ApplyOptions
 
-    style, model = style_and_model
+    style = loaded_style
     # the stray-limb guard and the posture match read each span's time means (45 frames here), not the whole take's
-    monkeypatch.setitem(style.meta["config"], "limb_guard", 0.0)
-    monkeypatch.setitem(style.meta["config"], "posture", 0.0)
+    monkeypatch.setitem(style.style.meta["config"], "limb_guard", 0.0)
+    monkeypatch.setitem(style.style.meta["config"], "posture", 0.0)
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))  # 300 canonical frames: 5 windows
     monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 3 batches, finished across the spans' ends
-    whole = apply_file(style, model, clip, tmp_path / "whole", preview=False, neutralize=neutralize)
-    assert "streamed" not in whole
+    whole = style.apply(clip, tmp_path / "whole", ApplyOptions(preview=False, neutralize=neutralize))
+    assert whole.streamed is None
     monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)  # 15 s: a long take now
     monkeypatch.setattr(long_takes, "SPAN_FRAMES", 45)
     monkeypatch.setattr(long_takes, "MARGIN", 20)
-    streamed = apply_file(style, model, clip, tmp_path / "streamed", preview=True, neutralize=neutralize)
-    assert streamed["streamed"] == 7 and "span" in streamed["stream_note"]
-    assert streamed["neutralized"] == whole["neutralized"] == (neutralize == "always")
-    a, la = read_bvh(whole["output"])
-    b, lb = read_bvh(streamed["output"])
+    streamed = style.apply(clip, tmp_path / "streamed", ApplyOptions(preview=True, neutralize=neutralize))
+    assert streamed.streamed == 7 and "span" in streamed.stream_note
+    assert streamed.neutralized == whole.neutralized == (neutralize == "always")
+    a, la = read_bvh(whole.output)
+    b, lb = read_bvh(streamed.output)
     assert (b.num_frames, b.fps, lb) == (a.num_frames, a.fps, la)
-    text_a, text_b = Path(whole["output"]).read_text(), Path(streamed["output"]).read_text()
+    text_a, text_b = Path(whole.output).read_text(), Path(streamed.output).read_text()
     assert text_a.split("MOTION")[0] == text_b.split("MOTION")[0]
     assert text_a.splitlines()[len(text_a.split("MOTION")[0].splitlines()):][:3] == \
         text_b.splitlines()[len(text_b.split("MOTION")[0].splitlines()):][:3]  # MOTION, Frames:, Frame Time:
     gap = (a.global_positions() - b.global_positions()).norm(dim=-1).max()
     assert gap < 0.0005, f"{100 * gap:.4f} cm"
-    assert Path(streamed["preview"]).is_file() and Path(streamed["player"]).is_file()
+    assert Path(streamed.preview).is_file() and Path(streamed.player).is_file()
 
 
 @pytest.mark.slow
 @shipped
-def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, style_and_model):
+def test_every_guard_runs_on_a_streamed_take(tmp_path, monkeypatch, loaded_style):
     """One apply path (transfer.spans): a take streamed in one span, every guard on, is the whole-clip result."""
-    from video2style.pipeline import apply_file
+    from video2style.options import ApplyOptions
 
-    style, model = style_and_model
+    style = loaded_style
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))
-    whole = apply_file(style, model, clip, tmp_path / "whole", preview=False, neutralize="never")
+    whole = style.apply(clip, tmp_path / "whole", ApplyOptions(preview=False, neutralize="never"))
     monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)
     monkeypatch.setattr(long_takes, "SPAN_FRAMES", 1_000)  # one span: the guards see what the whole clip's see
-    streamed = apply_file(style, model, clip, tmp_path / "streamed", preview=False, neutralize="never")
-    assert streamed["streamed"] == 1 and "each span on its own" in streamed["stream_note"]
+    streamed = style.apply(clip, tmp_path / "streamed", ApplyOptions(preview=False, neutralize="never"))
+    assert streamed.streamed == 1 and "each span on its own" in streamed.stream_note
     for key in ("still_share", "arm_motion_share", "content_share", "rolls_conformed"):
-        assert streamed[key] == pytest.approx(whole[key], abs=1e-3), key
-    a, b = read_bvh(whole["output"])[0], read_bvh(streamed["output"])[0]
+        assert getattr(streamed, key) == pytest.approx(getattr(whole, key), abs=1e-3), key
+    a, b = read_bvh(whole.output)[0], read_bvh(streamed.output)[0]
     gap = (a.global_positions() - b.global_positions()).norm(dim=-1).max()
     assert gap < 0.0005, f"{100 * gap:.4f} cm"
 
 
 @pytest.mark.slow
 @shipped
-def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_model):
-    from video2style.pipeline import apply_file
+def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, loaded_style):
+    from video2style.options import ApplyOptions
 
-    style, model = style_and_model
+    style = loaded_style
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))
     calls = []
@@ -211,19 +209,19 @@ def test_a_failure_midway_leaves_no_output(tmp_path, monkeypatch, style_and_mode
     monkeypatch.setattr(long_takes, "MARGIN", 20)
     out = tmp_path / "out"
     with pytest.raises(OSError, match="No space"):
-        apply_file(style, model, clip, out, neutralize="never")
+        style.apply(clip, out, ApplyOptions(neutralize="never"))
     assert len(calls) == 3 and (not out.exists() or list(out.iterdir()) == [])
 
 
 @pytest.mark.slow
 @shipped
-def test_a_tempo_keeps_the_whole_clip_path_and_says_so(tmp_path, monkeypatch, style_and_model):
-    from video2style.pipeline import apply_file
+def test_a_tempo_keeps_the_whole_clip_path_and_says_so(tmp_path, monkeypatch, loaded_style):
+    from video2style.options import ApplyOptions
 
-    style, model = style_and_model
+    style = loaded_style
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(300, 30.0))
     monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 5.0)
-    info = apply_file(style, model, clip, tmp_path / "out", preview=False, neutralize="never", tempo="0.9")
-    assert "streamed" not in info and info["tempo"] == 0.9
-    assert "applied whole (--tempo 0.9)" in info["stream_note"]
+    info = style.apply(clip, tmp_path / "out", ApplyOptions(preview=False, neutralize="never", tempo="0.9"))
+    assert info.streamed is None and info.tempo == 0.9
+    assert "applied whole (--tempo 0.9)" in info.stream_note

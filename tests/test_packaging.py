@@ -16,8 +16,8 @@ def test_the_wheel_holds_weights_samples_and_the_console_script(tmp_path):
                     "-w", str(tmp_path)], check=True, cwd=tmp_path)
     wheel = next(tmp_path.glob("video2style-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
-    for need in ("transfer/weights/denoiser.safetensors", "transfer/weights/motion_encoder.safetensors",
-                 "transfer/weights/captions.safetensors", "transfer/weights/park_stylizer.safetensors",
+    for need in ("mlcore/weights/denoiser.safetensors", "mlcore/weights/motion_encoder.safetensors",
+                 "mlcore/weights/captions.safetensors", "mlcore/weights/park_stylizer.safetensors",
                  *(f"video2style/samples/{p.name}" for p in (ROOT / "samples").iterdir() if p.suffix in (".bvh", ".mp4")),
                  "video2style/samples/elderly.mp4", "video2style/samples/walk_prior.bvh", "video2style/cli.py",
                  "motioncore/humanoid/__init__.py", "motioncore/humanoid/limb_chains.py", "video2style/blender_io.py", "lifting/lift.py", "lifting/reconstruct.py", "evaluation/protocol.py",

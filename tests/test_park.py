@@ -7,6 +7,7 @@ import math
 import pytest
 import torch
 
+from mlcore.checkpoints import save_model
 from motioncore.representation import FEATURES
 from park.infer import (
     code_from_noise,
@@ -31,7 +32,6 @@ from park.networks import (
     unpool,
 )
 from park.train import ParkTrainConfig, train_park
-from transfer.checkpoints import save_model
 
 D = FEATURES.dim
 SMALL = {"channels": [8, 16, 32], "window": 16}

@@ -6,13 +6,14 @@ from pathlib import Path
 import pytest
 import torch
 
+from mlcore.shipped import SHIPPED as WEIGHTS
 from motioncore.bvh import read_bvh
-from transfer.bundle import load_models
-from transfer.shipped import SHIPPED as WEIGHTS
 from transfer.style_config import LearnConfig
-from transfer.style_file import Style, style_model
+from transfer.style_file import Style
 from video2style.demo import SAMPLES
-from video2style.pipeline import PartialStyleError, apply_file, learn_file
+from video2style.loaded_style import LoadedStyle
+from video2style.options import ApplyOptions
+from video2style.pipeline import PartialStyleError, learn_file
 
 pytestmark = pytest.mark.skipif(not (WEIGHTS / "denoiser.safetensors").is_file(), reason="shipped weights not present")
 
@@ -40,17 +41,17 @@ def test_learn_from_a_bvh_and_apply_to_another(tmp_path, monkeypatch):
     style = Style.load(tmp_path / "old.v2s")
     assert style.meta["style"] == "old" and style.example is not None
     assert style.meta["iterations"] == 2 and len(style.meta["loss_rec"]) == 2 and style.meta["partial"]
-    model = style_model(load_models().prior, style)
-    info = apply_file(style, model, SAMPLES / "run_prior.bvh", tmp_path / "out", 0.5, preview=False, neutralize="never")
-    out, _ = read_bvh(Path(info["output"]))
+    info = LoadedStyle.from_style(style).apply(SAMPLES / "run_prior.bvh", tmp_path / "out",
+                                               ApplyOptions(strength=0.5, preview=False, neutralize="never"))
+    out, _ = read_bvh(Path(info.output))
     src, _ = read_bvh(SAMPLES / "run_prior.bvh")
     assert out.skeleton.names == src.skeleton.names and out.num_frames == src.num_frames and out.fps == src.fps
-    assert 0.0 <= info["skating_after"] <= info["skating_before"] + 1e-6
+    assert 0.0 <= info.skating_after <= info.skating_before + 1e-6
     from motioncore.skating import foot_skating_ratio
     from video2style.pipeline import read_clip
 
     content = read_clip(SAMPLES / "run_prior.bvh").canonical  # what it passes on, said beside the result's
-    assert info["skating_content"] == foot_skating_ratio(content.global_positions(), content.fps)
+    assert info.skating_content == foot_skating_ratio(content.global_positions(), content.fps)
     assert torch.isfinite(out.lrot).all()
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import pytest
 import torch
 
+from mlcore.dataset import MotionDataset
 from tests.synthetic_cache import write_synthetic_cache
-from transfer.dataset import MotionDataset
 from transfer.prior import (
     PriorTrainConfig,
     convergence,

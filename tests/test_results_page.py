@@ -46,16 +46,18 @@ def test_the_page_says_what_apply_decided_on_its_own(tmp_path):
     """A clip whose style change the keeper scaled, or the still-pose guard smoothed, says so under its player,
     with the words apply prints; a clip where neither acted says nothing more than its name."""
     from video2style.batch import BatchReport, write_index
-    from video2style.pipeline import apply_notes
+    from video2style.result import ApplyResult
+    from video2style.summary import apply_notes
 
-    assert apply_notes({"still_share": 1.0, "content_share": 1.0, "rolls_conformed": False}) == [] == apply_notes({})
-    assert apply_notes({"rolls_conformed": True})[0].startswith("its rig rolls its bones its own way")
-    notes = apply_notes({"still_share": 0.0, "content_share": 0.5})
+    assert apply_notes(ApplyResult("c.bvh", still_share=1.0, content_share=1.0, rolls_conformed=False)) == [] \
+        == apply_notes(ApplyResult("c.bvh"))
+    assert apply_notes(ApplyResult("c.bvh", rolls_conformed=True))[0].startswith("its rig rolls its bones its own way")
+    notes = apply_notes(ApplyResult("c.bvh", still_share=0.0, content_share=0.5))
     assert notes[0].startswith("the style model barely moves on this clip, so 100% of its fast change")
     assert notes[1] == "style change scaled to 50% so the action still reads as the content's"
     arms = ("the example travels and this clip stays in place: its arms keep their own motion (4% of the style's), "
             "held where the example holds its arms")
-    assert apply_notes({"arm_motion_share": 0.04}) == [arms]
+    assert apply_notes(ApplyResult("c.bvh", arm_motion_share=0.04)) == [arms]
     out = tmp_path / "out"
     out.mkdir()
     report = BatchReport()

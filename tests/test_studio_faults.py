@@ -80,7 +80,8 @@ def test_stale_temporary_files_are_swept_and_a_second_batch_is_refused(tmp_path,
 
 
 def test_apply_refuses_two_clips_that_would_write_one_output(tmp_path):
-    from video2style.cli import CliError, _bvh_inputs
+    from video2style.commands.apply import _bvh_inputs
+    from video2style.commands.checks import CliError
 
     a, b = write_clip(tmp_path / "a" / "walk.bvh"), write_clip(tmp_path / "b" / "walk.bvh")
     with pytest.raises(CliError, match="would both write"):

@@ -1,6 +1,7 @@
 import pytest
 import torch
 
+from mlcore.windows import crossfade, crossfade_overlap, window_starts
 from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
@@ -12,7 +13,6 @@ from transfer.bundle import MethodBundle
 from transfer.lora import add_lora, lora_state, set_gain
 from transfer.style_config import ApplyConfig, LearnConfig, strength_to_step
 from transfer.style_file import Style, style_model
-from transfer.windows import crossfade, crossfade_overlap, window_starts
 
 
 def test_lora_starts_as_identity_and_only_adapters_train():

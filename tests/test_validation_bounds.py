@@ -76,10 +76,10 @@ def test_learn_refuses_up_front_what_a_style_file_may_not_hold(tmp_path, capsys,
 
 @pytest.mark.parametrize("field", ["iterations", "max_seconds", "seed", "posture", "content_keep"])
 def test_the_cli_accepts_exactly_the_schema_s_range_ends(field):
-    from video2style.cli import _style_option
+    from video2style.arguments import style_option
 
     kind, low, high = CONFIG_RANGES[field]
-    parse = _style_option(field)
+    parse = style_option(field)
     for value in (low, high):
         assert parse(str(value)) == value
         validate_config({field: value})
@@ -130,19 +130,18 @@ def test_a_style_config_that_would_make_apply_slow_is_refused(config, field):
 
 @pytest.mark.slow
 def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkeypatch):
-    from video2style import pipeline
+    from video2style.loaded_style import LoadedStyle
 
-    monkeypatch.setattr(pipeline, "stylize_motion", lambda bundle, style, model, content, *a: (content, {}))
-    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": None)
+    monkeypatch.setattr(LoadedStyle, "stylize", lambda self, content, request: (content, {}))
     long_example = encode(random_motion(seconds=150.0))  # a style learned from a 2.5-minute input
-    style = Style({}, {"style": "long"}, long_example)
-    info = pipeline.apply_file(style, torch.nn.Module(), _clip(tmp_path / "c.bvh", seconds=1.0), tmp_path / "out")
-    text = Path(info["player"]).read_text()
+    style = LoadedStyle(Style({}, {"style": "long"}, long_example), None, torch.nn.Module())
+    info = style.apply(_clip(tmp_path / "c.bvh", seconds=1.0), tmp_path / "out")
+    text = Path(info.player).read_text()
     data = json.loads(text[text.index("= {") + 2:text.rindex(";")])
-    assert data["frames"] == info["frames"] == 20 and [p["n"] for p in data["panels"]] == [20, 20, 20]
+    assert data["frames"] == info.frames == 20 and [p["n"] for p in data["panels"]] == [20, 20, 20]
     import cv2
 
-    video = cv2.VideoCapture(info["preview"])
+    video = cv2.VideoCapture(info.preview)
     assert video.get(cv2.CAP_PROP_FRAME_COUNT) == 20
     video.release()
 
@@ -150,7 +149,7 @@ def test_the_preview_s_example_panel_is_no_longer_than_the_clip(tmp_path, monkey
 # 3. A long input: learning uses a bounded, most typical part of it, and says which.
 
 def test_the_most_typical_window_of_a_long_example_is_found():
-    from transfer.windows import typical_window
+    from mlcore.windows import typical_window
 
     g = torch.Generator().manual_seed(0)
     x = torch.randn(2000, 8, generator=g)
@@ -367,17 +366,16 @@ def test_a_latin1_joint_name_is_kept_byte_for_byte(tmp_path):
 
 
 def test_a_clip_whose_preview_fails_leaves_none_of_its_outputs(tmp_path, monkeypatch):
-    from video2style import pipeline
-
     def full_disk(*a, **k):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(pipeline, "stylize_motion", lambda bundle, style, model, content, *a: (content, {}))
-    monkeypatch.setattr(pipeline, "load_models", lambda device="cpu": None)
+    from video2style.loaded_style import LoadedStyle
+
+    monkeypatch.setattr(LoadedStyle, "stylize", lambda self, content, request: (content, {}))
     monkeypatch.setattr("motioncore.render.render_video", full_disk)
     out = tmp_path / "out"
     with pytest.raises(OSError):
-        pipeline.apply_file(Style({}, {}), torch.nn.Module(), _clip(tmp_path / "c.bvh"), out)
+        LoadedStyle(Style({}, {}), None, torch.nn.Module()).apply(_clip(tmp_path / "c.bvh"), out)
     assert not list(out.iterdir())
 
 
@@ -387,10 +385,11 @@ def test_a_failed_batch_row_points_at_no_output(tmp_path, monkeypatch):
     def fails(*a, **k):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("video2style.pipeline.apply_file", fails)
+    from video2style.loaded_style import LoadedStyle
     from video2style.options import ApplyOptions
 
-    row = apply_item(Style({}, {}), None, "facts", "v.mp4", _clip(tmp_path / "c.bvh"), tmp_path / "out",
+    monkeypatch.setattr(LoadedStyle, "apply", fails)
+    row = apply_item(LoadedStyle(Style({}, {}), None, None), "v.mp4", _clip(tmp_path / "c.bvh"), tmp_path / "out",
                      ApplyOptions(strength=0.5, seed=0))
     assert row["status"] == "failed" and row["output"] == row["preview"] == row["player"] == ""
 

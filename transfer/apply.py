@@ -11,12 +11,13 @@ from dataclasses import dataclass
 
 import torch
 
+from mlcore.captions import BANDAI2_CONTENTS, STYLES, caption
+from mlcore.device import model_device
+from mlcore.windows import WindowStream, crossfade_overlap, window_starts
 from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, decode
 from motioncore.skating import motion_skating
-from transfer.captions import BANDAI2_CONTENTS, STYLES, caption
-from transfer.device import model_device
 from transfer.edit import neutralize, stylize
 from transfer.posture import (
     arm_gate,
@@ -28,7 +29,6 @@ from transfer.posture import (
     posture_channels,
 )
 from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
-from transfer.windows import WindowStream, crossfade_overlap, window_starts
 
 # Thresholds of a confident reading, chosen on the val split (docs/archive/RESULTS-notebook.md#content-safety,
 # "When apply neutralises first"): every
@@ -145,7 +145,7 @@ def neutral_caption(motion_encoder, text_encoder, x: torch.Tensor, mode: str = "
     """The one decision "redraw this clip neutral before styling it?": the :class:`Reading` of normalised
     content ``x (T, D)`` and, when :meth:`Reading.should_neutralize` says so, the embedding ``(1, E)`` of the
     neutral caption of what it reads (else None)."""
-    from transfer.captions import content_caption
+    from mlcore.captions import content_caption
 
     reading = read_motion(motion_encoder, text_encoder, x)
     if not reading.should_neutralize(mode):
@@ -171,7 +171,7 @@ def neutralize_windows(prior, scheduler, x: torch.Tensor, text: torch.Tensor, le
                        overlap: int | None = None) -> torch.Tensor:
     """:func:`transfer.edit.neutralize` of normalised features ``x (T, D)`` under ``text (1, E)`` (from ``step``,
     default G), in ``window``-frame windows crossfaded over ``overlap`` (default:
-    :func:`transfer.windows.crossfade_overlap`): the prior, trained on 80-frame windows, draws longer motion
+    :func:`mlcore.windows.crossfade_overlap`): the prior, trained on 80-frame windows, draws longer motion
     shuffling. A clip no longer than a window is drawn whole. ``x`` and ``text`` on the prior's device."""
     _check_features(x)
     overlap = crossfade_overlap(window) if overlap is None else overlap
@@ -195,7 +195,7 @@ class StyleStream:
     """The windows of :func:`apply_style_features` over normalised content features of a motion of ``n`` frames, fed
     in order, a span at a time or whole: the neutral redraw first under ``neutral_text (1, E)`` when given
     (:func:`neutralize_features`, seed ``seed + 1``), then the style model's (:func:`transfer.edit.stylize`, seed
-    ``seed``), each in ``window``-frame windows crossfaded over ``overlap`` (:class:`transfer.windows.WindowStream`:
+    ``seed``), each in ``window``-frame windows crossfaded over ``overlap`` (:class:`mlcore.windows.WindowStream`:
     the same windows, batches and noise however the motion is fed). ``config`` is the apply settings ``strength``
     sets (:func:`transfer.style_config.strength_settings`); the still-pose guard's share of each window goes to
     ``shares`` when a list is given. ``feed(x)`` (on ``model``'s device) returns ``(content, styled)``, the frames
@@ -237,7 +237,7 @@ def apply_style_features(bundle, model, x: torch.Tensor, learned: LearnConfig, c
     of ``bundle`` (:class:`transfer.bundle.MethodBundle`): ``learned`` is the style's learning config, ``config`` its
     apply settings, which ``strength`` sets (:func:`transfer.style_config.strength_settings`; None: as learned).
     ``neutral_text (1, E)`` first neutralises a styled clip (:func:`neutralize_features`). In 80-frame windows
-    crossfaded over ``overlap`` (default: :func:`transfer.windows.crossfade_overlap`, 20; :class:`StyleStream`),
+    crossfaded over ``overlap`` (default: :func:`mlcore.windows.crossfade_overlap`, 20; :class:`StyleStream`),
     then guarded (:func:`guard_features`: ``posture_shift``, ``example``). The smallest share of the difference's
     fast part that the still-pose guard kept over the windows (:func:`transfer.edit.keep_slow_when_still`) goes to
     ``report["still_share"]`` when a dict is given, with what the guards report. Runs on the models' device

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import torch
 
+from mlcore.shipped import weights_path
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion, generate
 from transfer.scheduler import DiffusionScheduler
-from transfer.shipped import weights_path
 
 PRIOR_FILE = "denoiser.safetensors"
 ENCODER_FILE = "motion_encoder.safetensors"
@@ -74,8 +74,8 @@ class MethodBundle:
     def from_pretrained(cls, source: str | Path | tuple[Path, Path], device: str | torch.device = "cpu") -> MethodBundle:
         """The bundle of a folder holding :data:`PRIOR_FILE` and :data:`ENCODER_FILE` (e.g. the unseen-style
         protocol's development weights), or of ``(prior file, motion encoder file)``, on ``device`` (``auto``,
-        ``cpu``, ``cuda``: :func:`transfer.device.resolve_device`)."""
-        from transfer.device import resolve_device
+        ``cpu``, ``cuda``: :func:`mlcore.device.resolve_device`)."""
+        from mlcore.device import resolve_device
         from transfer.motion_encoder import load_motion_encoder
         from transfer.prior import load_prior
         from transfer.text_encoder import default_text_encoder
@@ -93,7 +93,7 @@ class MethodBundle:
 def load_models(device: str | torch.device = "cpu") -> MethodBundle:
     """The shipped models' bundle on ``device`` (see :meth:`MethodBundle.from_pretrained`), loaded once per
     process and device."""
-    from transfer.device import resolve_device
+    from mlcore.device import resolve_device
 
     return _shipped_on(str(resolve_device(device)))
 

@@ -14,8 +14,8 @@ import torch
 from safetensors import safe_open
 from safetensors.torch import load_file, save_file
 
+from mlcore.captions import BANDAI2_CONTENTS, content_caption
 from motioncore.files import atomic_output
-from transfer.captions import BANDAI2_CONTENTS, content_caption
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
 
 # The median length in frames (20 fps) of the prior's neutral training clips of each content (the dataset cache's
@@ -36,7 +36,7 @@ class BankRecord:
 
 
 class ContentBank:
-    """The slice of :class:`transfer.dataset.MotionDataset`'s interface that style learning uses."""
+    """The slice of :class:`mlcore.dataset.MotionDataset`'s interface that style learning uses."""
 
     def __init__(self, path: Path):
         path = Path(path)

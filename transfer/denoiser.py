@@ -8,8 +8,8 @@ import torch
 from safetensors.torch import load_file
 from torch import nn
 
+from mlcore.checkpoints import load_config
 from motioncore.representation import FEATURES, positions_from_rotations
-from transfer.checkpoints import load_config
 from transfer.layers import Block, MotionEmbedding, sinusoidal
 
 

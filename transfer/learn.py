@@ -21,11 +21,11 @@ import torch
 from torch.profiler import record_function
 from tqdm import tqdm
 
+from mlcore.captions import caption
+from mlcore.device import model_device
 from motioncore.representation import FEATURES
 from transfer.amount import calibrate_gain, calibration_clips, style_distance
 from transfer.apply import apply_style_features, neutralize_windows
-from transfer.captions import caption
-from transfer.device import model_device
 from transfer.edit import TRAJECTORY, neutralize
 from transfer.lora import add_lora, lora_state
 from transfer.posture import bound_pair

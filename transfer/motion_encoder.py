@@ -18,14 +18,14 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.nn import functional as F
 
+from mlcore.checkpoints import load_config, resumed_config, save_model
+from mlcore.dataset import MotionDataset
+from mlcore.device import model_device, resolve_device
+from mlcore.training import Trainer
 from motioncore.representation import FEATURES
-from transfer.checkpoints import load_config, resumed_config, save_model
-from transfer.dataset import MotionDataset
-from transfer.device import model_device, resolve_device
 from transfer.layers import Block, MotionEmbedding
 from transfer.prior import caption_embeddings, load_prior
 from transfer.scheduler import DiffusionScheduler
-from transfer.training import Trainer
 
 
 @dataclass
@@ -89,7 +89,7 @@ def alignment_losses(z: torch.Tensor, text: torch.Tensor, same: torch.Tensor, te
 def train_motion_encoder(data_dir: Path, prior_path: Path, out_dir: Path, config: EncoderTrainConfig, max_minutes: float,
                          max_steps: int = 10**9, explicit: dict | None = None, progress: bool = True,
                          device: str = "cpu") -> Trainer:
-    """Train (or resume) the motion encoder on ``device`` (:func:`transfer.device.resolve_device`), with the
+    """Train (or resume) the motion encoder on ``device`` (:func:`mlcore.device.resolve_device`), with the
     prior there too; the model starts from the same seeded weights on any device, batches and noise are drawn
     on the CPU."""
     device = resolve_device(device)

@@ -10,14 +10,14 @@ from typing import ClassVar
 
 import torch
 
+from mlcore.checkpoints import resumed_config, save_model
+from mlcore.dataset import MotionDataset
+from mlcore.device import model_device, resolve_device
+from mlcore.training import Trainer
 from motioncore.representation import FEATURES, feet_velocity, positions_from_rotations
-from transfer.checkpoints import resumed_config, save_model
-from transfer.dataset import MotionDataset
 from transfer.denoiser import Denoiser, DenoiserConfig, load_denoiser
-from transfer.device import model_device, resolve_device
 from transfer.scheduler import DiffusionScheduler
 from transfer.text_encoder import default_text_encoder
-from transfer.training import Trainer
 
 
 @dataclass
@@ -232,7 +232,7 @@ def convergence(val_log: list[tuple[int, float]], fraction: float = 0.2) -> floa
 
 def train_prior(data_dir: Path, out_dir: Path, config: PriorTrainConfig, max_minutes: float, max_steps: int = 10**9,
                 explicit: dict | None = None, progress: bool = True, device: str = "cpu") -> Trainer:
-    """Train (or resume) the prior on ``device`` (:func:`transfer.device.resolve_device`); the model starts
+    """Train (or resume) the prior on ``device`` (:func:`mlcore.device.resolve_device`); the model starts
     from the same seeded weights on any device, batches and noise are drawn on the CPU."""
     device = resolve_device(device)
     out_dir = Path(out_dir)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import torch
 
-from transfer.device import model_device
+from mlcore.device import model_device
 from transfer.scheduler import DiffusionScheduler
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import torch
 
+from mlcore.device import model_device
 from motioncore.cleanup import cleanup_feet
 from motioncore.motion import Motion
 from motioncore.representation import FEATURES, encode, facing_angle
@@ -26,7 +27,6 @@ from transfer.apply import (
     guard_features,
     neutral_caption,
 )
-from transfer.device import model_device
 
 
 @dataclass

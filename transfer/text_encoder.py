@@ -12,7 +12,7 @@ from pathlib import Path
 
 import torch
 
-from transfer.shipped import SHIPPED
+from mlcore.shipped import SHIPPED
 
 EMBED_DIM = 384
 
@@ -56,7 +56,7 @@ CAPTION_TABLE = SHIPPED / "captions.safetensors"  # derived from the text encode
 def standard_captions() -> list[str]:
     """Every caption `apply` and `learn` need without a user's words: each Bandai-2 content in each style,
     and each content alone (what a clip is neutralised toward)."""
-    from transfer.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
+    from mlcore.captions import BANDAI2_CONTENTS, STYLES, caption, content_caption
 
     texts = [caption(c, s) for c in BANDAI2_CONTENTS for s in STYLES] + [content_caption(c) for c in BANDAI2_CONTENTS]
     return list(dict.fromkeys(texts))

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from motioncore.files import atomic_write_text, is_temp_name
 from motioncore.text import printable
+from video2style.options import ApplyOptions
 from video2style.paths import LOCK_NAME, check_no_links, check_outputs, inside
 from video2style.pipeline import VIDEO_SUFFIXES, content_clips
 
@@ -249,20 +250,15 @@ def batch_folder(out_dir: Path, progress):
             sweep_temp_files(out_dir)  # a worker killed mid-write leaves its temporary file; all work is over now
 
 
-def run_batch(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-              seed: int = 0, progress=print, device: str = "cpu", rotate: int | None = None,
-              options=None) -> BatchReport:
+def run_batch(inputs, content_dir: Path, out_dir: Path, options: ApplyOptions = ApplyOptions(), learn_config=None,
+              progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
     """Styles from ``inputs`` (:func:`find_style_sources`: videos, example clips, style files, folders of videos and
     style files): a style file is used as it is; every other source's style is learned into ``out/styles/<name>.v2s``
     (and loaded from there on a later run). Results go to ``out/<name>/<clip's path under content>`` (+ previews).
-    ``options``: the apply options (:class:`video2style.options.ApplyOptions`; default: ``strength`` and ``seed``,
-    the rest as apply's defaults). An item counts as done only when its result and its preview both exist; a style
+    ``options``: the apply request (:class:`video2style.options.ApplyOptions`; default: apply's defaults). An item counts as done only when its result and its preview both exist; a style
     file in the output folder that does not load is learned again. One batch per output folder at a time. The models
     run on ``device`` (:func:`transfer.bundle.load_models`). ``rotate``: every video's frames turned this many
     degrees clockwise before tracking (None: as they are; a video whose person is turned fails naming --rotate)."""
-    from video2style.options import ApplyOptions
-
-    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
     videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):
@@ -306,8 +302,7 @@ def _style_for(video: Path, style_file: Path, tag: str, learn_config, progress, 
 def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: Path, out_dir: Path, options,
                learn_config, progress, report: BatchReport, device: str = "cpu",
                rotate: int | None = None) -> None:
-    from transfer.bundle import load_models
-    from transfer.style_file import style_model
+    from video2style.loaded_style import LoadedStyle
 
     t0 = time.time()
     try:
@@ -317,11 +312,9 @@ def _one_video(video: Path, key: str, tag: str, clips: list[Path], content_dir: 
                    error=f"{'style' if is_style_file(video) else 'learn'}: {printable(e)}", seconds=time.time() - t0)
         progress(f"    failed: {printable(e)}")
         return
-    model = style_model(load_models(device).prior, style)
-    facts = _style_facts(style, options.strength)
+    loaded = LoadedStyle.from_style(style, device=device)
     for ci, clip in enumerate(clips, 1):
-        row = apply_item(style, model, facts, video.name, clip, out_dir / key / clip.relative_to(content_dir).parent,
-                         options)
+        row = apply_item(loaded, video.name, clip, out_dir / key / clip.relative_to(content_dir).parent, options)
         report.add(**row)
         if row["status"] == "failed":
             progress(f"    [{ci}/{len(clips)}] {clip.name}: failed: {row['error']}")
@@ -346,52 +339,42 @@ def _converter(options):
     return _CONVERTERS[key]
 
 
-def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, options, retries: int = 0) -> dict:
-    """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide), with the
-    apply ``options`` (:class:`video2style.options.ApplyOptions`): skipped when its result and preview (when one is
-    asked for) exist, else applied (tried ``retries`` more times on an error). The report row."""
+def apply_item(style, video: str, clip: Path, where: Path, options, retries: int = 0) -> dict:
+    """One (video, clip) item of a batch into folder ``where`` (subfolders kept: no two clips collide): ``style``
+    (a :class:`video2style.loaded_style.LoadedStyle`) applied as ``options`` ask
+    (:class:`video2style.options.ApplyOptions`): skipped when its result and preview (when one is asked for)
+    exist, else applied (tried ``retries`` more times on an error). The report row."""
     from motioncore.retarget import load_joint_map
     from video2style.interchange import in_format, output_suffix
-    from video2style.pipeline import apply_file
     from video2style.summary import clip_details
 
     joint_map = load_joint_map(options.joint_map) if options.joint_map else None
 
     def one(path, folder):
-        return apply_file(style, model, path, folder, options.strength, options.seed, options.neutralize, joint_map,
-                          options.preview, options.tempo)
+        return style.apply(path, folder, options, joint_map)
 
     # an FBX/glTF clip's result: the same format (or --format), keyed onto its own file (one Blender per process)
     run = in_format(one, lambda: _converter(options), options.format)
     out_bvh = where / f"{clip.stem}{output_suffix(clip, options.format)}"
     preview = where / f"{clip.stem}_preview.mp4"
     player = where / f"{clip.stem}_player.js"
-    row = {"video": video, "clip": clip.name, "content": str(clip), "style": facts, "output": str(out_bvh),
-           "preview": str(preview) if options.preview else "", "player": str(player) if player.is_file() else ""}
+    row = {"video": video, "clip": clip.name, "content": str(clip), "style": style.describe(options.strength),
+           "output": str(out_bvh), "preview": str(preview) if options.preview else "",
+           "player": str(player) if player.is_file() else ""}
     if out_bvh.is_file() and (preview.is_file() or not options.preview):
         return {**row, "status": "skipped (done)", "seconds": 0.0, "attempts": 0}
     t0, error = time.time(), None
     for attempt in range(1, retries + 2):
         try:
-            info = run(clip, where)
+            result = run(clip, where)
         except Exception as e:  # noqa: BLE001 - one bad clip must not stop the batch
             error = printable(e)  # one line, nothing a crafted file or Blender said can reach the terminal raw
             continue
-        details = {k: v for k, v in clip_details(info).items() if k not in ("input", "output", "preview", "player", "seconds")}
-        return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": info["output"],
-                "preview": info.get("preview", ""), "player": info.get("player", ""), **details}
+        details = {k: v for k, v in clip_details(result).items() if k not in ("input", "output", "preview", "player", "seconds")}
+        return {**row, "status": "done", "seconds": time.time() - t0, "attempts": attempt, "output": result.output,
+                "preview": result.preview or "", "player": result.player or "", **details}
     return {**row, "status": "failed", "error": error, "seconds": time.time() - t0, "attempts": retries + 1,
             "output": "", "preview": "", "player": ""}  # a failed item wrote nothing (pipeline.write_outputs)
-
-
-def _style_facts(style, strength: float) -> str:
-    meta = getattr(style, "meta", {}) or {}
-    facts = [f"style {meta.get('style', '?')!s}"]
-    if meta.get("source"):
-        facts.append(f"learned from {meta['source']}")
-    if meta.get("iterations") is not None:
-        facts.append(f"{meta['iterations']} iterations")
-    return ", ".join(facts) + f"; applied at strength {strength:g}"
 
 
 def write_report(report: BatchReport, out_dir: Path) -> Path:

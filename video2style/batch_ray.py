@@ -19,10 +19,9 @@ import socket
 import time
 from pathlib import Path
 
-from transfer.device import DEVICES, resolve_device
+from mlcore.device import DEVICES, resolve_device
 from video2style.batch import (
     BatchReport,
-    _style_facts,
     apply_item,
     batch_folder,
     plan,
@@ -30,6 +29,7 @@ from video2style.batch import (
     write_index,
     write_report,
 )
+from video2style.options import ApplyOptions
 
 
 def _worker() -> str:
@@ -40,7 +40,7 @@ def task_device(device: str, cluster_gpus: float | None) -> str:
     """Where the learn and apply tasks run for ``--device`` (``auto``, ``cpu``, ``cuda``): ``"cuda"`` or ``"cpu"``.
 
     ``cluster_gpus`` None (a local Ray): what ``device`` resolves to on this machine
-    (:func:`transfer.device.resolve_device`). On a cluster, the GPUs Ray counts decide: cuda for ``cuda`` (a
+    (:func:`mlcore.device.resolve_device`). On a cluster, the GPUs Ray counts decide: cuda for ``cuda`` (a
     ValueError when there are none: its tasks would wait forever) and for ``auto`` when there are some.
     """
     if cluster_gpus is None:
@@ -83,22 +83,18 @@ def _apply_job(video: str, style_file: str, items: list[tuple[str, str]], option
     """Apply one style to a chunk of ``(clip, output folder)`` items (runs in a Ray worker, on ``device``)."""
     import torch
 
-    from transfer.bundle import load_models
-    from transfer.style_file import Style, style_model
+    from video2style.loaded_style import LoadedStyle
 
     torch.set_num_threads(threads)
-    style = Style.load(Path(style_file))
-    model = style_model(load_models(device).prior, style)
-    facts = _style_facts(style, options.strength)
-    return [{**apply_item(style, model, facts, video, Path(clip), Path(where), options, retries), "worker": _worker()}
+    style = LoadedStyle.from_file(style_file, device=device)
+    return [{**apply_item(style, video, Path(clip), Path(where), options, retries), "worker": _worker()}
             for clip, where in items]
 
 
-def run_batch_ray(inputs, content_dir: Path, out_dir: Path, strength: float = 0.5, learn_config=None,
-                  seed: int = 0, address: str | None = None, workers: int | None = None, chunk: int = 8,
-                  retries: int = 1, progress=print, device: str = "cpu", rotate: int | None = None,
-                  options=None) -> BatchReport:
-    """:func:`video2style.batch.run_batch` on Ray. ``address``: None starts a local Ray with ``workers``
+def run_batch_ray(inputs, content_dir: Path, out_dir: Path, options: ApplyOptions = ApplyOptions(), learn_config=None,
+                  address: str | None = None, workers: int | None = None, chunk: int = 8, retries: int = 1,
+                  progress=print, device: str = "cpu", rotate: int | None = None) -> BatchReport:
+    """:func:`video2style.batch.run_batch` on Ray (``options``: the apply request). ``address``: None starts a local Ray with ``workers``
     CPUs (default: all), ``"auto"`` or ``"ray://host:port"`` joins a cluster. Writes ``index.html`` and
     ``report.json`` (one row per item: status, seconds, worker, attempts, error). ``device``: where the
     tasks run (:func:`task_device`; a GPU task asks Ray for one GPU)."""
@@ -108,9 +104,6 @@ def run_batch_ray(inputs, content_dir: Path, out_dir: Path, strength: float = 0.
         raise RuntimeError('batch --ray needs Ray: pip install "video2style[ray]"') from None
     from tqdm import tqdm
 
-    from video2style.options import ApplyOptions
-
-    options = options or ApplyOptions(strength=strength, seed=seed)
     out_dir = Path(out_dir)
     videos, clips, keys = plan(inputs, content_dir, out_dir, progress)
     with batch_folder(out_dir, progress):

@@ -46,7 +46,7 @@ def run_demo(out_dir: Path, progress=print, samples: Path = SAMPLES):
         progress(f"pose: {video.name} -> {info['bvh']} ({info['bvh_frames']} frames at {info['bvh_fps']:g} fps, "
                  f"{info['bvh_seconds']:.2f} s; tracked at {info['fps']:.0f} video frames a second), "
                  f"preview {info['preview']}")
-    report = run_batch(samples, samples, out_dir, 0.5, progress=progress)
+    report = run_batch(samples, samples, out_dir, progress=progress)  # apply's defaults: --strength 0.5
     progress(report.table())
     progress(f"open {out_dir / 'index.html'} to see every result beside its content clip and style example")
     return report

@@ -46,7 +46,7 @@ def cleaned(features_fn, data, decoder_for=lambda content, example: decode):
     motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
     the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
     stray-limb guard included), foot cleanup and encoding again; normalised as the protocol's ``data``
-    (:class:`transfer.dataset.MotionDataset`) is."""
+    (:class:`mlcore.dataset.MotionDataset`) is."""
     def transfer(content_feats, style_example, style_label, content_label):
         out = features_fn(content_feats, style_example, style_label, content_label)
         content_m = decode(data.denormalize(content_feats))
@@ -181,7 +181,7 @@ def build_methods(names: list[str], data_dir: Path, seed: int = 0, progress=prin
     clips for learning drawn without ``exclude_styles`` (the unseen-style protocol); ``words``: the style words
     every style is learned under (default: its name)."""
     from evaluation.protocol import identity_transfer
-    from transfer.dataset import MotionDataset
+    from mlcore.dataset import MotionDataset
     from transfer.style_config import split_config
 
     names = method_names(names)
@@ -246,7 +246,7 @@ def evaluate(data_dir: Path, out_dir: Path, quick: bool = True, methods: list[st
         format_table,
         run_protocol,
     )
-    from transfer.captions import NEUTRAL_STYLE, STYLES
+    from mlcore.captions import NEUTRAL_STYLE, STYLES
     from transfer.style_config import LearnConfig
 
     if not (Path(data_dir) / "features.safetensors").is_file():
@@ -368,7 +368,7 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
                         calibrate: bool = False, style_cache: Path | None = None, progress=print) -> Iterator[str]:
     """The second unseen-style protocol (:mod:`evaluation.dev_styles`): each of the five dev styles learned from
     its walk as ``learn`` learns (the shipped models, content from the dataset cache or the bank), applied as
-    ``apply`` applies (:func:`transfer.apply.stylize_motion`) at ``strength`` to the neutral clip of each action;
+    ``apply`` applies (:meth:`video2style.loaded_style.LoadedStyle.stylize`) at ``strength`` to the neutral clip of each action;
     writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate``: each style
     calibrated (:mod:`transfer.amount`; off: gain 1, the default). ``style_cache``: a folder keeping the learned styles between runs."""
     from evaluation.dev_styles import (
@@ -377,11 +377,13 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
         read_archive,
         run_dev_protocol,
     )
-    from transfer.apply import read_motion, stylize_motion
+    from transfer.apply import read_motion
     from transfer.bundle import load_models
     from transfer.learn import learn_style
     from transfer.style_config import LearnConfig
-    from transfer.style_file import Style, style_model
+    from transfer.style_file import Style
+    from video2style.loaded_style import LoadedStyle
+    from video2style.options import ApplyOptions
     from video2style.pipeline import content_source
 
     t0 = time.time()
@@ -391,7 +393,8 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
            f"{100 * judges.loo_action:.1f} % leave-one-out")
     m, data = load_models(), content_source(progress)
     learned = LearnConfig(seed=seed, calibrate=calibrate)
-    styles: dict[str, tuple] = {}
+    request = ApplyOptions(strength=strength, seed=seed)
+    styles: dict[str, LoadedStyle] = {}
 
     def transfer(style, example, action, content):
         if style not in styles:
@@ -406,10 +409,9 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
                 if path is not None:
                     path.parent.mkdir(parents=True, exist_ok=True)
                     st.save(path)
-            styles[style] = (st, style_model(m.prior, st))
+            styles[style] = LoadedStyle.from_style(st, m)
             progress(f"  learned {style!r}: gain {st.gain:.2f}")
-        st, model = styles[style]
-        return encode(stylize_motion(m, st, model, decode(content), strength, seed)[0])
+        return encode(styles[style].stylize(decode(content), request)[0])
 
     result = run_dev_protocol(transfer, clips, judges, progress=lambda s: progress(f"  {s}"))
     identity = run_dev_protocol(lambda s, e, a, c: c, clips, judges)

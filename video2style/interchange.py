@@ -690,8 +690,9 @@ def shared_converter() -> Converter:
 
 
 def in_formats(args, run_item):
-    """``run_item(clip, folder) -> info`` (BVH in, BVH results named in ``info["output"]``) made to take
-    FBX/glTF clips and to give each result in ``args.format`` (default: the clip's own format)."""
+    """``run_item(clip, folder) -> result`` (BVH in, BVH results named in the
+    :class:`video2style.result.ApplyResult`'s ``outputs``) made to take FBX/glTF clips and to give each result in
+    ``args.format`` (default: the clip's own format)."""
     return in_format(run_item, lambda: converter_for(args), getattr(args, "format", None))
 
 
@@ -704,27 +705,27 @@ def in_format(run_item, converter, fmt: str | None = None):
             return run_item(path, where)
         conv = converter()
         try:
-            info = run_item(conv.to_bvh(path), where)
+            result = run_item(conv.to_bvh(path), where)
         except ValueError as e:  # a message naming the temporary BVH names the user's file instead
             raise InterchangeError(conv.named(str(e))) from e
-        info["input"] = str(path)
-        outs = info["output"] if isinstance(info["output"], list) else [info["output"]]
+        result.input = str(path)
+        outs = result.outputs
         if suffix == ".bvh":
-            return info
+            return result
         written = []
         try:
             for out in outs:
                 written.append(str(conv.write(out, Path(out).with_suffix(suffix),
                                               source=path if is_clip_file(path) else None)))
         except BaseException:  # a clip's outputs all or none: its preview goes too, and results already written
-            for extra in [*written, info.get("preview"), info.get("player")]:
+            for extra in [*written, result.preview, result.player]:
                 if extra:
                     Path(extra).unlink(missing_ok=True)
             raise
         finally:
             for out in outs:  # the BVH step's own results
                 Path(out).unlink(missing_ok=True)
-        info["output"] = written if isinstance(info["output"], list) else written[0]
-        return info
+        result.outputs = written
+        return result
 
     return run

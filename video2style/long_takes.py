@@ -32,6 +32,7 @@ from motioncore.retarget import (
 )
 from motioncore.skeleton import CANONICAL
 from video2style.clip_limits import check_frames, check_length
+from video2style.result import ApplyResult
 
 LONG_TAKE_SECONDS = 300.0  # BVH takes longer than this are applied a span at a time
 SPAN_FRAMES = 6_000  # canonical frames (5 minutes at 20 fps) converted, decoded and written at a time
@@ -102,19 +103,15 @@ class Shown:
     layout: object
 
 
-def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0,
-                   neutralize: str = "auto", joint_map: dict | None = None, preview: bool = True,
-                   span: int | None = None, margin: int | None = None) -> tuple[dict, Shown | None]:
-    """:func:`video2style.pipeline.apply_file` for a long BVH take, a span of ``span`` canonical frames at a
-    time (default :data:`SPAN_FRAMES`, :data:`MARGIN` either side; see the module's docstring); writes
-    ``out_dir/<name>.bvh``. Returns what apply_file returns (``skating_*`` pooled over the spans, each span
-    measured on its own; ``still_share``, ``arm_motion_share`` and ``content_share`` the smallest of any span's)
-    with ``streamed``, the number of spans, and, with ``preview``, its first
-    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply_file's preview."""
-    from transfer.bundle import load_models
-    from transfer.device import model_device
-    from transfer.spans import stylize_spans
-
+def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | None = None,
+                   span: int | None = None, margin: int | None = None) -> tuple[ApplyResult, Shown | None]:
+    """:meth:`video2style.loaded_style.LoadedStyle.apply` for a long BVH take (``style``: the
+    :class:`~video2style.loaded_style.LoadedStyle`; ``request``: its :class:`~video2style.options.ApplyOptions`),
+    a span of ``span`` canonical frames at a time (default :data:`SPAN_FRAMES`, :data:`MARGIN` either side; see the
+    module's docstring); writes ``out_dir/<name>.bvh``. Returns the result (``skating_*`` pooled over the spans,
+    each span measured on its own; ``still_share``, ``arm_motion_share`` and ``content_share`` the smallest of any
+    span's; ``streamed``, the number of spans; no preview yet) and, with ``request.preview``, its first
+    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply's preview."""
     t0 = time.time()
     span = SPAN_FRAMES if span is None else span  # the module's, read at the call (tests make them small)
     margin = MARGIN if margin is None else margin
@@ -141,7 +138,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
 
     from video2style.preview import MAX_PREVIEW_SECONDS
 
-    shown = min(n, int(MAX_PREVIEW_SECONDS * CANONICAL.fps)) if preview else 0
+    shown = min(n, int(MAX_PREVIEW_SECONDS * CANONICAL.fps)) if request.preview else 0
     kept = {"content": [], "result": [], "written": []}  # the previewed frames
     sums = {"skating_before": 0.0, "skating_after": 0.0, "skating_content": 0.0}
     decided: dict = {}
@@ -149,8 +146,7 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
     spans = 0
     per = CANONICAL.fps / frames.fps
     with BvhSpanWriter(out_path, frames.skeleton, frames.layout, frames.num_frames, frames.fps) as writer:
-        for done in stylize_spans(load_models(model_device(model)), style, model, take.canonical, n, strength, seed,
-                                  neutralize, floor=feet_min, span=span, margin=margin, report=decided):
+        for done in style.spans(take.canonical, n, request, floor=feet_min, span=span, margin=margin, report=decided):
             c, d = done.start, done.stop
             for key, value in done.skating.items():
                 sums[key] += value * (d - c)
@@ -165,17 +161,16 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
                 kept["content"].append(done.content.slice(c - done.lo, end - done.lo))
                 kept["result"].append(done.result.slice(c - done.lo, end - done.lo))
             spans += 1
-    info = {"input": str(path), "frames": n, "detected": decided.pop("detected"),
-            "neutralized": decided.pop("neutralized"), **{k: v / n for k, v in sums.items()}, **decided,
-            "tempo": 1.0, "streamed": spans, "seconds_transfer": time.time() - t0, "output": str(out_path),
-            "rolls_conformed": take.conform,
-            "stream_note": f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
-                           f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take); "
-                           "its posture, arm hold, content keeper and stray-limb guard read each span on its own"}
-    if not preview:
-        return info, None
+    result = ApplyResult(str(path), [str(out_path)], frames=n, **{k: v / n for k, v in sums.items()}, **decided,
+                         tempo=1.0, streamed=spans, seconds_transfer=time.time() - t0, rolls_conformed=take.conform,
+                         stream_note=f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
+                                     f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the "
+                                     "take); its posture, arm hold, content keeper and stray-limb guard read each "
+                                     "span on its own")
+    if not request.preview:
+        return result, None
     joined = {k: _joined(v) for k, v in kept.items()}
-    return info, Shown(joined["content"], joined["result"], joined["written"], rig, frames.layout)
+    return result, Shown(joined["content"], joined["result"], joined["written"], rig, frames.layout)
 
 
 def _joined(parts: list[Motion]) -> Motion:

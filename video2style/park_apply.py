@@ -13,13 +13,14 @@ from pathlib import Path
 
 import torch
 
+from mlcore.shipped import weights_path
 from motioncore.ik_fit import decode_via_positions
 from motioncore.motion import Motion
 from motioncore.representation import encode, facing_angle
 from motioncore.skating import motion_skating
 from transfer.apply import cleanup_feet_measured
-from transfer.shipped import weights_path
 from video2style.pipeline import Clip, read_clip, write_outputs
+from video2style.result import ApplyResult
 
 
 @lru_cache(maxsize=2)
@@ -111,16 +112,19 @@ def stylize_clip(model, clip: Clip, codes: list[tuple[torch.Tensor, str]], clean
 
 
 def apply_park_file(model, path: Path, out_dir: Path, request: ParkRequest, joint_map: dict | None = None,
-                     preview: bool = True) -> dict:
-    """Stylise one BVH with Park et al.'s stylizer; writes ``out_dir/<name>[_<tag>].bvh`` and a preview."""
+                    preview: bool = True) -> ApplyResult:
+    """Stylise one BVH with Park et al.'s stylizer; writes ``out_dir/<name>[_<tag>].bvh`` and a preview. The
+    result's skating ratios are the worst of its variants'."""
     t0 = time.time()
     clip = read_clip(path, joint_map)
     codes = style_codes(model, request, joint_map)
     ratios: list[dict] = []
     results = stylize_clip(model, clip, codes, foot_ratios=ratios)
-    info = {"input": str(path), "frames": clip.canonical.num_frames, "seconds_transfer": time.time() - t0,
-            "skating_before": max(r["skating_before"] for r in ratios), "skating_after": max(r["skating_after"] for r in ratios),
-            "skating_content": motion_skating(clip.canonical)}
-    info.update(write_outputs(clip, results, Path(out_dir), preview=preview))
-    info["seconds"] = time.time() - t0
-    return info
+    result = ApplyResult(str(path), frames=clip.canonical.num_frames, seconds_transfer=time.time() - t0,
+                         skating_before=max(r["skating_before"] for r in ratios),
+                         skating_after=max(r["skating_after"] for r in ratios),
+                         skating_content=motion_skating(clip.canonical))
+    written = write_outputs(clip, results, Path(out_dir), preview=preview)
+    result.add_files(written)
+    result.seconds = time.time() - t0
+    return result

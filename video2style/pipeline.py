@@ -1,4 +1,5 @@
-"""Orchestration of learn / apply over files: reading inputs, models, writing BVH and previews."""
+"""Orchestration of learn / apply over files: reading inputs, models, writing BVH and previews (the style applied
+to a clip: :meth:`video2style.loaded_style.LoadedStyle.apply`)."""
 from __future__ import annotations
 
 import os
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import torch
 
+from mlcore.shipped import weights_path
 from motioncore.bvh import BvhLayout, read_bvh, write_bvh
 from motioncore.ik_fit import conform_rolls, off_roll_convention
 from motioncore.motion import Motion, resample, time_warp, trim
@@ -16,8 +18,6 @@ from motioncore.retarget import Rig, carry_edit, make_rig, place_on_floor, to_ca
 from motioncore.skeleton import CANONICAL
 from transfer.bundle import load_models
 from transfer.sampling import TEXT_TO_MOTION, TextToMotion
-from transfer.shipped import weights_path
-from transfer.spans import stylize_motion
 from video2style.clip_limits import check_frames, check_length
 
 VIDEO_SUFFIXES = {".mp4", ".mov", ".avi", ".mkv", ".webm", ".m4v"}
@@ -148,25 +148,6 @@ def as_written(clip: Clip, result: Motion, written: Motion | None) -> Motion:
 ROLLS_NOTE = "its rig rolls its bones its own way: the models read rotations solved again from its joint positions"
 
 
-def apply_notes(info: dict) -> list[str]:
-    """What apply decided on its own for one clip, as sentences for a user (``info``: :func:`apply_file`'s): bone
-    rolls solved again (``rolls_conformed``), the still-pose guard (``still_share``), the arms' hold on a clip done
-    in place (``arm_motion_share``) and the content keeper (``content_share``); empty when none of them acted."""
-    notes = []
-    if info.get("rolls_conformed"):
-        notes.append(f"{ROLLS_NOTE} (the file written keeps its own twist)")
-    if info.get("still_share", 1.0) < 1.0:
-        notes.append(f"the style model barely moves on this clip, so {100 * (1 - info['still_share']):.0f}% of its "
-                     "fast change was left out (its slow change, the posture, is kept)")
-    if info.get("arm_motion_share", 1.0) < 1.0:
-        notes.append(f"the example travels and this clip stays in place: its arms keep their own motion "
-                     f"({100 * info['arm_motion_share']:.0f}% of the style's), held where the example holds its arms")
-    if info.get("content_share", 1.0) < 1.0:
-        notes.append(f"style change scaled to {100 * info['content_share']:.0f}% so the action still reads as the "
-                     "content's")
-    return notes
-
-
 def example_motion(style, frames: int | None = None) -> Motion | None:
     """The style example stored in a style file, decoded for previews: its first ``frames`` frames (None: all),
     so that a long example costs a preview no more than the clip beside it does."""
@@ -179,8 +160,8 @@ def elapsed(t0: float) -> str:
 
 def content_source(progress=print):
     """Neutral content motions for style learning: the dataset cache if present, else the shipped bank."""
+    from mlcore.dataset import MotionDataset
     from transfer.content_bank import ContentBank
-    from transfer.dataset import MotionDataset
     from video2style.paths import default_dataset_dir
 
     data_dir = Path(os.environ.get("VIDEO2STYLE_DATA", default_dataset_dir()))
@@ -308,9 +289,9 @@ def _announce_long_video(path: Path, span: tuple[float | None, float | None], pr
 def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0) -> tuple[Motion, tuple[float, float]]:
     """The part of a canonical example (and its normalised ``features (T, D)``) that learning uses: all of it
     up to :data:`MAX_EXAMPLE_SECONDS`, else its most typical window of that length
-    (:func:`transfer.windows.typical_window`, starts every second). Returns the motion (``canonical`` itself when
+    (:func:`mlcore.windows.typical_window`, starts every second). Returns the motion (``canonical`` itself when
     whole) and its ``(start, end)`` in seconds of the input, ``offset`` being where ``canonical`` starts there."""
-    from transfer.windows import typical_window
+    from mlcore.windows import typical_window
 
     length = int(MAX_EXAMPLE_SECONDS * canonical.fps)
     if canonical.num_frames <= length:
@@ -320,56 +301,18 @@ def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0)
     return part, (offset + start / canonical.fps, offset + (start + length) / canonical.fps)
 
 
-def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
-               joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
-    """:func:`transfer.spans.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
-    ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview). ``tempo`` (see :func:`transfer.tempo.resolve_tempo`):
-    the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same)."""
-    from transfer.device import model_device
-    from transfer.tempo import resolve_tempo
-
-    t0 = time.time()
-    speed = resolve_tempo(style, tempo)
-    from video2style.long_takes import LONG_TAKE_SECONDS, apply_long_bvh, is_long_take
-
-    long_take = Path(path).suffix.lower() == BVH_SUFFIX and is_long_take(path)
-    if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
-        info, shown = apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
-        if shown is not None:
-            info.update(_long_take_preview(style, Path(path), shown, info, Path(out_dir)))
-        info["seconds"] = time.time() - t0
-        return info
-    clip = warp_clip(read_clip(path, joint_map), speed)
-    result, decided = stylize_motion(load_models(model_device(model)), style, model, clip.canonical, strength, seed,
-                                     neutralize)
-    decided["tempo"] = speed
-    extra = example_panels(style, clip.canonical.num_frames)
-    from video2style.summary import motion_change
-
-    info = {"input": str(path), "frames": clip.canonical.num_frames, **decided, "seconds_transfer": time.time() - t0,
-            "rolls_conformed": clip.rolls_conformed, "change": motion_change(clip.canonical, result),
-            # the written file's own length (a BVH's frames and frame rate; a video's result is canonical)
-            "file_frames": clip.canonical.num_frames if clip.source is None else clip.source.num_frames,
-            "file_fps": (clip.canonical if clip.source is None else clip.source).fps}
-    if long_take:
-        info["stream_note"] = (f"applied whole (--tempo {speed:g}): takes over {LONG_TAKE_SECONDS / 60:g} min are "
-                               "applied a span at a time only at --tempo 1; memory grows with this take")
-    info.update(write_outputs(clip, [(result, "result")], Path(out_dir), extra, preview))
-    info["seconds"] = time.time() - t0
-    return info
-
-
 def example_panels(style, frames: int) -> list[tuple[Motion, str]]:
     """The style example's preview panel beside a clip of ``frames`` frames, no longer than it (none without one)."""
     ex = example_motion(style, frames)
     return [] if ex is None else [(ex, f"style: {style.meta.get('style', '')}")]
 
 
-def _long_take_preview(style, path: Path, shown, info: dict, out_dir: Path) -> dict:
+def write_long_take_preview(style, path: Path, shown, output: str, frames: int, out_dir: Path) -> dict:
     """The preview and player of a long take's first frames (``shown``: :class:`video2style.long_takes.Shown`;
-    :func:`write_preview`); when they fail, the take's output (``info["output"]``) goes with them."""
+    ``frames``: the take's canonical frames; :func:`write_preview`); when they fail, the take's ``output`` goes
+    with them."""
     clip = Clip(path, shown.content, shown.rig, shown.layout)
-    made = [Path(info["output"])]
+    made = [Path(output)]
     try:
         preview = write_preview(clip, [(as_written(clip, shown.result, shown.written), "result")], out_dir,
                                 example_panels(style, shown.content.num_frames), made)
@@ -377,16 +320,17 @@ def _long_take_preview(style, path: Path, shown, info: dict, out_dir: Path) -> d
         for p in made:
             p.unlink(missing_ok=True)
         raise
-    if shown.content.num_frames < info["frames"]:
+    if shown.content.num_frames < frames:
         preview["preview_note"] = (f"the preview shows the first {shown.content.num_frames / CANONICAL.fps:g} s of "
-                                   f"{info['frames'] / CANONICAL.fps:.0f} s")
+                                   f"{frames / CANONICAL.fps:.0f} s")
     return preview
 
 
 def write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path, extra: list[tuple[Motion, str]] = (),
                   preview: bool = True) -> dict:
     """Write each ``(result, tag)`` as BVH on the clip's skeleton (``<name>.bvh`` for one result, else
-    ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths.
+    ``<name>_<tag>.bvh``) and one preview mp4: content | extra panels | results. Returns the paths: ``outputs``
+    (a list, in the order of ``results``) and :func:`write_preview`'s.
     All of a clip's outputs or none: when one fails (a full disk), those this call wrote are removed."""
     made: list[Path] = []
     try:
@@ -409,7 +353,7 @@ def _write_outputs(clip: Clip, results: list[tuple[Motion, str]], out_dir: Path,
             written.append((as_written(clip, motion, on_file), tag))
         del on_file  # a long take's copy is not kept past its writing
         outputs.append(str(Path(out_dir) / name))
-    info = {"output": outputs[0] if len(outputs) == 1 else outputs}
+    info = {"outputs": outputs}
     if preview:
         info.update(write_preview(clip, written, out_dir, extra, made))
     return info

@@ -2,14 +2,16 @@
 
 The line says what was changed, how strongly the style shows (how far the joints moved from the content's
 places, on average), how often the feet slide before (the content) and after (the result), and any guard
-that held the style back. Everything else :func:`video2style.pipeline.apply_file` decided (the motion
-encoder's reading, the guards' shares, the sentences of :func:`video2style.pipeline.apply_notes`) goes into
-the clip's row of ``report.json`` (:func:`clip_details`).
+that held the style back. Everything else apply decided (:class:`video2style.result.ApplyResult`: the motion
+encoder's reading, the guards' shares, the sentences of :func:`apply_notes`) goes into the clip's row of
+``report.json`` (:func:`clip_details`).
 """
 from __future__ import annotations
 
 import json
 from pathlib import Path
+
+from video2style.result import ApplyResult
 
 PARTS = {"arms": ("Shoulder", "UpperArm", "LowerArm", "Hand"), "legs": ("UpperLeg", "LowerLeg", "Foot", "Toes"),
          "head and spine": ("Spine", "Chest", "Neck", "Head")}
@@ -42,63 +44,84 @@ def _pct(x: float) -> str:
     return f"{100 * x:.0f}%"
 
 
-def guards_held(info: dict) -> list[str]:
+def _share(share: float | None) -> float:
+    return 1.0 if share is None else share
+
+
+def guards_held(result: ApplyResult) -> list[str]:
     """The guards that held the style back on this clip, in a few words each."""
     held = []  # a share that rounds to 100% held nothing back that a user could see
-    if info.get("still_share", 1.0) < HELD:
-        held.append(f"still-pose guard left out {_pct(1 - info['still_share'])} of the fast change")
-    if info.get("arm_motion_share", 1.0) < HELD:
-        held.append(f"arms kept their own motion ({_pct(info['arm_motion_share'])} of the style's)")
-    if info.get("content_share", 1.0) < HELD:
-        held.append(f"scaled to {_pct(info['content_share'])} so the action still reads")
+    if _share(result.still_share) < HELD:
+        held.append(f"still-pose guard left out {_pct(1 - result.still_share)} of the fast change")
+    if _share(result.arm_motion_share) < HELD:
+        held.append(f"arms kept their own motion ({_pct(result.arm_motion_share)} of the style's)")
+    if _share(result.content_share) < HELD:
+        held.append(f"scaled to {_pct(result.content_share)} so the action still reads")
     return held
 
 
-def file_length(info: dict) -> str:
+def apply_notes(result: ApplyResult) -> list[str]:
+    """What apply decided on its own for one clip, as sentences for a user: bone rolls solved again
+    (``rolls_conformed``), the still-pose guard (``still_share``), the arms' hold on a clip done in place
+    (``arm_motion_share``) and the content keeper (``content_share``); empty when none of them acted."""
+    from video2style.pipeline import ROLLS_NOTE
+
+    notes = []
+    if result.rolls_conformed:
+        notes.append(f"{ROLLS_NOTE} (the file written keeps its own twist)")
+    if _share(result.still_share) < 1.0:
+        notes.append(f"the style model barely moves on this clip, so {100 * (1 - result.still_share):.0f}% of its "
+                     "fast change was left out (its slow change, the posture, is kept)")
+    if _share(result.arm_motion_share) < 1.0:
+        notes.append(f"the example travels and this clip stays in place: its arms keep their own motion "
+                     f"({100 * result.arm_motion_share:.0f}% of the style's), held where the example holds its arms")
+    if _share(result.content_share) < 1.0:
+        notes.append(f"style change scaled to {100 * result.content_share:.0f}% so the action still reads as the "
+                     "content's")
+    return notes
+
+
+def file_length(result: ApplyResult) -> str:
     """The result's length in its own file's frames and seconds (the canonical frames when the file is a video's)."""
-    frames, fps = info.get("file_frames"), info.get("file_fps")
+    frames, fps = result.file_frames, result.file_fps
     if frames is None or not fps:
         from motioncore.skeleton import CANONICAL
 
-        frames, fps = info.get("frames"), CANONICAL.fps
+        frames, fps = result.frames, CANONICAL.fps
     if frames is None:
         return ""
     return f"{frames} frames at {fps:g} fps, {frames / fps:.2f} s"
 
 
-def clip_line(info: dict) -> str:
-    """One short line about one clip's result (``info``: :func:`video2style.pipeline.apply_file`'s)."""
+def clip_line(result: ApplyResult) -> str:
+    """One short line about one clip's result."""
     changed = []
-    if info.get("neutralized"):
+    if result.neutralized:
         changed.append("neutralised first")
-    if info.get("tempo", 1.0) != 1.0:
-        changed.append(f"played {info['tempo']:.2f}x as fast")
-    parts = [file_length(info)] if file_length(info) else []
-    change = info.get("change")
+    if (result.tempo or 1.0) != 1.0:
+        changed.append(f"played {result.tempo:.2f}x as fast")
+    parts = [file_length(result)] if file_length(result) else []
+    change = result.change
     if change:
         most = f", most in the {change['most']}" if change.get("most") else ""
         parts.append(f"style shows {change['shows']} (joints moved {change['joints_cm']:.1f} cm on average{most})")
     if changed:
         parts.append(", ".join(changed))
-    if "skating_after" in info:
-        parts.append(f"feet slide in {_pct(info['skating_content'])} of frames before, {_pct(info['skating_after'])} after")
-    held = guards_held(info)
+    if result.skating_after is not None:
+        parts.append(f"feet slide in {_pct(result.skating_content)} of frames before, {_pct(result.skating_after)} after")
+    held = guards_held(result)
     if held:
         parts.append("held back: " + "; ".join(held))
     return "; ".join(parts)
 
 
-def clip_details(info: dict) -> dict:
-    """The numbers and sentences of one clip's result, for its row of ``report.json``."""
-    from video2style.pipeline import apply_notes
-
-    keys = ("input", "output", "preview", "player", "frames", "file_frames", "file_fps", "tempo", "detected",
-            "neutralized", "skating_content", "skating_before", "skating_after", "still_share", "arm_motion_share",
-            "content_share", "rolls_conformed", "change", "seconds", "seconds_transfer", "preview_note", "stream_note")
-    row = {k: info[k] for k in keys if k in info}
-    row["summary"] = clip_line(info)
-    row["notes"] = apply_notes(info)
-    row["guards_held"] = guards_held(info)
+def clip_details(result: ApplyResult) -> dict:
+    """The numbers and sentences of one clip's result, for its row of ``report.json``: the measured fields
+    (:meth:`video2style.result.ApplyResult.reported`), the summary line, the notes and the guards that held."""
+    row = result.reported()
+    row["summary"] = clip_line(result)
+    row["notes"] = apply_notes(result)
+    row["guards_held"] = guards_held(result)
     return row
 
 

@@ -1,5 +1,5 @@
 """One resumable training loop for every trainer: step- and time-bounded, seeded, progress bar, CSV log,
-periodic safetensors checkpoints (:class:`transfer.checkpoints.RunCheckpoint`).
+periodic safetensors checkpoints (:class:`mlcore.checkpoints.RunCheckpoint`).
 
 :class:`Trainer` runs it for one model with one AdamW optimizer and an EMA copy (prior, motion encoder,
 classifiers); Park et al.'s GAN (:mod:`park.train`) runs the same loop with its own iteration.
@@ -15,7 +15,7 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from transfer.checkpoints import RunCheckpoint
+from mlcore.checkpoints import RunCheckpoint
 
 
 @torch.no_grad()

@@ -1,4 +1,4 @@
-"""Where the trained weights are: ``$VIDEO2STYLE_WEIGHTS`` if set, else the ones shipped in ``transfer/weights/``.
+"""Where the trained weights are: ``$VIDEO2STYLE_WEIGHTS`` if set, else the ones shipped in ``mlcore/weights/``.
 
 The one place that decides it: loading (``video2style``), the default output of training commands
 (classifiers, Park et al.'s stylizer) and the derived caption table all go through here.
@@ -13,7 +13,7 @@ ENV = "VIDEO2STYLE_WEIGHTS"
 
 
 def weights_dir() -> Path:
-    """``$VIDEO2STYLE_WEIGHTS`` if set, else the package's ``transfer/weights/``."""
+    """``$VIDEO2STYLE_WEIGHTS`` if set, else the package's ``mlcore/weights/``."""
     return Path(os.environ[ENV]).expanduser() if os.environ.get(ENV) else SHIPPED
 
 

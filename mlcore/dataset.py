@@ -23,14 +23,7 @@ import torch
 from safetensors.torch import load_file, save_file
 from tqdm import tqdm
 
-from motioncore.bvh import BvhError, parse_bvh
-from motioncore.files import atomic_output, atomic_write_text
-from motioncore.ik_fit import conform_rolls
-from motioncore.motion import mirror, resample
-from motioncore.representation import FEATURES, encode
-from motioncore.retarget import make_rig, place_on_floor, to_canonical
-from motioncore.skeleton import CANONICAL
-from transfer.captions import (
+from mlcore.captions import (
     BANDAI2_CONTENTS,
     MIRROR_CONTENT,
     NEUTRAL_STYLE,
@@ -38,6 +31,13 @@ from transfer.captions import (
     STYLES,
     caption,
 )
+from motioncore.bvh import BvhError, parse_bvh
+from motioncore.files import atomic_output, atomic_write_text
+from motioncore.ik_fit import conform_rolls
+from motioncore.motion import mirror, resample
+from motioncore.representation import FEATURES, encode
+from motioncore.retarget import make_rig, place_on_floor, to_canonical
+from motioncore.skeleton import CANONICAL
 
 _NAME = re.compile(r"dataset-(\d)_(?P<content>[a-z-]+?)_(?P<style>[a-z]+)_(?P<num>\d+)\.bvh$")
 STD_FLOOR = 1e-2
