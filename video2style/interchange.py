@@ -122,10 +122,13 @@ def check_resources(path: str | os.PathLike) -> None:
 
 
 def blender_command() -> list[str] | None:
-    """How to run the Blender-side script: the ``bpy`` module in this Python, else ``blender`` on PATH; None when neither."""
-    if importlib.util.find_spec("bpy") is not None:
+    """How to run the Blender-side script: the Blender that ``$VIDEO2STYLE_BLENDER`` names where it is set (so it
+    chooses even where this Python has ``bpy``), else the ``bpy`` module in this Python, else ``blender`` on PATH;
+    None when none of these is there."""
+    named = os.environ.get("VIDEO2STYLE_BLENDER", "").strip()
+    if not named and importlib.util.find_spec("bpy") is not None:
         return [sys.executable, str(SCRIPT)]
-    exe = shutil.which(os.environ.get("VIDEO2STYLE_BLENDER", "blender"))
+    exe = shutil.which(named or "blender")
     if exe is None:
         return None
     return [exe, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT)]
@@ -235,6 +238,10 @@ class Blender:
     def _start(self, path: Path) -> None:
         cmd = blender_command()
         if cmd is None:
+            named = os.environ.get("VIDEO2STYLE_BLENDER", "").strip()
+            if named:
+                raise InterchangeError(f"{path}: $VIDEO2STYLE_BLENDER names {printable(repr(named), 200)}, which is not "
+                                       "an executable (unset it to use the bpy module or `blender` on PATH)")
             raise InterchangeError(f"{path}: reading and writing FBX/glTF needs Blender: {HOW_TO_GET}")
         env = None if cmd[0] == sys.executable else blender_env()
         try:
