@@ -120,3 +120,42 @@ def trunk_lean(motion) -> float:
     v = rel[:, names.index("Neck") - 1] - torch.stack([torch.zeros_like(gpos[:, 0, 1]), gpos[:, 0, 1],
                                                        torch.zeros_like(gpos[:, 0, 1])], -1)
     return float(torch.rad2deg(torch.atan2(v[:, 2], v[:, 1])).median())
+
+
+def gait_measures(motion) -> dict:
+    """What an animator sees change in a walk of a canonical ``motion`` (at least a second long):
+
+    - ``lean_deg``: the trunk's median forward lean (:func:`trunk_lean`);
+    - ``arm_swing_cm``: how far the hands swing forward and back about the hips, in the hips' facing frame (each hand's
+      5th-95th percentile range of its forward place, mean of both hands);
+    - ``step_cm``: ground distance travelled per step (a step: a foot's contact starting, either foot);
+    - ``cadence_spm``: steps per minute.
+
+    Steps come from the ankles' contacts (:func:`motioncore.representation.foot_contacts`); a clip without two steps
+    gives NaN for both step measures."""
+    import math
+
+    import torch
+
+    from motioncore.representation import facing_frame, foot_contacts
+    from motioncore.skeleton import CANONICAL
+
+    names = CANONICAL.skeleton.names
+    if tuple(motion.skeleton.names) != tuple(names):
+        raise ValueError(f"gait_measures: expected a motion on the canonical skeleton, got joints {motion.skeleton.names[:3]}...")
+    if motion.num_frames < motion.fps:
+        raise ValueError(f"gait_measures: expected at least a second of motion, got {motion.num_frames} frames")
+    gpos = motion.global_positions().float()
+    _, rel = facing_frame(gpos)  # joints 1.. relative to the root's ground point: x left, y up, z forward
+    swing = []
+    for hand in ("Hand_L", "Hand_R"):
+        z = rel[:, names.index(hand) - 1, 2]
+        swing.append(float(torch.quantile(z, 0.95) - torch.quantile(z, 0.05)))
+    contacts = foot_contacts(gpos, motion.fps)[:, [0, 2]] > 0.5  # the ankles
+    onsets = int((contacts[1:] & ~contacts[:-1]).sum())
+    travelled = float((gpos[1:, 0, [0, 2]] - gpos[:-1, 0, [0, 2]]).norm(dim=-1).sum())
+    seconds = motion.num_frames / motion.fps
+    steps_ok = onsets >= 2
+    return {"lean_deg": trunk_lean(motion), "arm_swing_cm": 100 * sum(swing) / 2,
+            "step_cm": 100 * travelled / onsets if steps_ok else math.nan,
+            "cadence_spm": 60 * onsets / seconds if steps_ok else math.nan}
