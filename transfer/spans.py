@@ -47,7 +47,7 @@ class StyledSpan:
 @torch.no_grad()
 def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n: int, strength: float = 0.5,
                   seed: int = 0, neutralize: str = "auto", floor: torch.Tensor | None = None, span: int | None = None,
-                  margin: int = 0, report: dict | None = None) -> Iterator[StyledSpan]:
+                  margin: int = 0, report: dict | None = None, feet: str = "auto") -> Iterator[StyledSpan]:
     """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters)
     to a canonical content motion of ``n`` frames, ``content(a, b)`` giving its frames ``a..b-1`` (asked for
     in order, a frame either side of a span for the features' velocities; the first 8 s again when the first
@@ -106,7 +106,7 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
             # in place where no later span reads these frames (the last): one copy of a clip's features at a time
             f_ext = bundle.denormalize(out.cpu(), inplace=d == n)
             raw = decoder(config, reference=ref, example=style.example)(f_ext, ref.fps, start_yaw=yaw, start_xz=xz)
-            cleaned = cleanup_feet(raw, reference=ref, floor=floor)  # the content's own skating: a slide it passes on
+            cleaned = raw if feet == "off" else cleanup_feet(raw, reference=ref, floor=floor)
             a0, a1 = c - lo, d - lo  # the span's own frames
             yield StyledSpan(c, d, lo, ref, cleaned, {"skating_before": motion_skating(raw.slice(a0, a1)),
                                                       "skating_after": motion_skating(cleaned.slice(a0, a1)),
@@ -122,7 +122,7 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
 
 
 def stylize_motion(bundle, style, model, content_motion: Motion, strength: float = 0.5, seed: int = 0,
-                   neutralize: str = "auto") -> tuple[Motion, dict]:
+                   neutralize: str = "auto", feet: str = "auto") -> tuple[Motion, dict]:
     """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters,
     :func:`transfer.style_file.style_model`) to a canonical content motion (canonical fps; ``T`` frames) with the
     models of ``bundle`` (:class:`transfer.bundle.MethodBundle`): the stylised canonical motion, ``T`` frames on the
@@ -138,7 +138,7 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
     on the CPU."""
     report: dict = {}
     (whole,) = stylize_spans(bundle, style, model, content_motion.slice, content_motion.num_frames, strength, seed,
-                             neutralize, report=report)
+                             neutralize, report=report, feet=feet)
     decided = {"detected": report.pop("detected"), "neutralized": report.pop("neutralized")}
     return whole.result, {**decided, **whole.skating, **report}
 
