@@ -37,6 +37,8 @@ class FeetConfig:
     reach: float = 0.985  # the leg straightens softly beyond this share of its length (two_bone_ik)
     stretch: float = 0.995  # the hips are lowered where a planted foot's target lies further than this share
     step: float = 0.10  # metres the content's toe travels in a swing for it to count as a step (swing clearance)
+    max_lift: float = 0.04  # metres a swing is raised by at most towards the example's clearance
+    max_turn: float = 1.0  # radians a planted foot is turned by at most towards the content's planted foot
 
 
 def _ease(x: torch.Tensor) -> torch.Tensor:
@@ -46,7 +48,7 @@ def _ease(x: torch.Tensor) -> torch.Tensor:
 def locked_offsets(delta: torch.Tensor, locked: torch.Tensor, bridge: int) -> torch.Tensor:
     """``delta (T, C)`` wherever ``locked (T,)``, eased across the frames between: from one locked run's last value to
     the next run's first across a gap of up to ``2 * bridge`` frames, else out to 0 over ``bridge`` frames and in
-    again (the ends too). Smoothstep: the result's velocity changes gradually, so the correction adds no spike."""
+    again; before the first run and after the last the same, or held where the motion ends sooner. Smoothstep: the result's velocity changes gradually, so the correction adds no spike."""
     if delta.ndim != 2 or locked.shape != delta.shape[:1]:
         raise ValueError(f"locked_offsets: expected delta (T, C) and locked (T,), got {tuple(delta.shape)}, "
                          f"{tuple(locked.shape)}")
@@ -67,7 +69,10 @@ def locked_offsets(delta: torch.Tensor, locked: torch.Tensor, bridge: int) -> to
     if not runs:
         return out
     s0 = runs[0][0]
-    ramp(max(0, s0 - bridge), s0, zero, delta[s0])
+    if s0 < bridge:  # no room to ease in before the motion starts: the correction holds from its first frame
+        out[:s0] = delta[s0]
+    else:
+        ramp(s0 - bridge, s0, zero, delta[s0])
     for (_, e0), (s1, _) in zip(runs, runs[1:]):
         if s1 - e0 <= 2 * bridge:
             ramp(e0, s1, delta[e0 - 1], delta[s1])
@@ -75,8 +80,51 @@ def locked_offsets(delta: torch.Tensor, locked: torch.Tensor, bridge: int) -> to
             ramp(e0, e0 + bridge, delta[e0 - 1], zero)
             ramp(s1 - bridge, s1, zero, delta[s1])
     e = runs[-1][1]
-    ramp(e, min(t, e + bridge), delta[e - 1], zero)
+    if t - e < bridge:
+        out[e:] = delta[e - 1]
+    else:
+        ramp(e, e + bridge, delta[e - 1], zero)
     return out
+
+
+def eased_targets(free: torch.Tensor, held: torch.Tensor, locked: torch.Tensor, bridge: int) -> torch.Tensor:
+    """Targets ``(T, C)``: ``held (T, C)`` wherever ``locked (T,)``, ``free (T, C)`` (the motion's own path) moved by the
+    held frames' corrections eased across the frames between (:func:`locked_offsets`), and next to each locked run
+    drawn onto its held place so that the path comes to rest there and leaves from rest (over ``bridge`` frames, half
+    a short gap at most): a foot the motion swings fast into a contact is slowed into it, not stopped at once. Before
+    the first run and after the last, where the motion starts or ends within ``bridge`` frames of it, the held place
+    holds."""
+    if free.shape != held.shape or free.ndim != 2 or locked.shape != free.shape[:1]:
+        raise ValueError(f"eased_targets: expected free and held (T, C) and locked (T,), got {tuple(free.shape)}, "
+                         f"{tuple(held.shape)}, {tuple(locked.shape)}")
+    t = free.shape[0]
+    runs = contact_runs(locked.bool())
+    if not runs:
+        return free.clone()
+    locked = locked.bool().clone()
+    held = held.clone()
+    (s0, _), (_, e1) = runs[0], runs[-1]
+    if s0 < bridge:
+        held[:s0], locked[:s0] = held[s0], True
+    if t - e1 < bridge:
+        held[e1:], locked[e1:] = held[e1 - 1], True
+    runs = contact_runs(locked)
+    offset = locked_offsets(held - free, locked, bridge)
+    near = torch.zeros_like(free)  # the nearest locked run's held place, and how much it pulls
+    w = torch.zeros(t, dtype=free.dtype)
+    edges = [(None, runs[0][0])] + [(e, s) for (_, e), (s, _) in zip(runs, runs[1:])] + [(runs[-1][1], None)]
+    for e0, s1 in edges:
+        gap = (s1 if s1 is not None else t) - (e0 if e0 is not None else 0)
+        k = min(bridge, gap // 2) if e0 is not None and s1 is not None else min(bridge, gap)
+        for j in range(1, k + 1):
+            x = float(_ease(torch.tensor(1.0 - j / (k + 1))))
+            if e0 is not None:
+                near[e0 + j - 1], w[e0 + j - 1] = held[e0 - 1], x
+            if s1 is not None:
+                near[s1 - j], w[s1 - j] = held[s1], x
+    offset = (1 - w)[:, None] * offset + w[:, None] * (near - free)
+    offset[locked] = (held - free)[locked]
+    return free + offset
 
 
 def two_bone_ik(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, parents, hip: int, knee: int, ankle: int,
@@ -102,6 +150,8 @@ def two_bone_ik(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, pare
     pole = bend - (bend * u).sum(-1, keepdim=True) * u
     fallback = quat.mul_vec(grot[:, hip], torch.tensor([0.0, 0.0, 1.0]).expand_as(pole))  # knee forward
     fallback = fallback - (fallback * u).sum(-1, keepdim=True) * u
+    if reach is not None:  # a leg nearly straight bends towards the front rather than flipping with its last few mm
+        pole = pole + 0.01 * torch.nn.functional.normalize(fallback, dim=-1)
     pole = torch.where(pole.norm(dim=-1, keepdim=True) < 1e-5, fallback, pole)
     pole = torch.nn.functional.normalize(pole, dim=-1)
     x = (l1**2 - l2**2 + d**2) / (2 * d)
@@ -121,17 +171,18 @@ def two_bone_ik(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, pare
 
 
 def _swing_lift(toe_h: torch.Tensor, ref_toe: torch.Tensor, planted: torch.Tensor, clearance: float,
-                step: float) -> torch.Tensor:
+                step: float, most: float) -> torch.Tensor:
     """``(T,)`` metres to raise a foot by so each swing (between two runs of ``planted (T,)``) in which the content's
     toe ``ref_toe (T, 3)`` travels at least ``step`` clears the floor by ``clearance`` at its highest (``toe_h (T,)``:
-    the result's toe height above its floor): a sine-squared bump over the swing, zero where it clears already."""
+    the result's toe height above its floor), by ``most`` at most: a sine-squared bump over the swing, zero where it
+    clears already."""
     lift = torch.zeros_like(toe_h)
     runs = contact_runs(planted)
     for (_, e0), (s1, _) in zip(runs, runs[1:]):
         if s1 <= e0:
             continue
         travel = float((ref_toe[s1, [0, 2]] - ref_toe[e0 - 1, [0, 2]]).norm())
-        short = clearance - float(toe_h[e0:s1].max())
+        short = min(most, clearance - float(toe_h[e0:s1].max()))
         if travel < step or short <= 0:
             continue
         x = torch.arange(1, s1 - e0 + 1, dtype=toe_h.dtype) / (s1 - e0 + 1)
@@ -203,12 +254,16 @@ def cleanup_feet(motion: Motion, reference: Motion | None = None, spec: Canonica
         ident = quat.identity(a.shape[0])
         turn_foot = quat.between(o - a, toe_at - heel_at)
         turn_foot = torch.where(turn_foot[:, :1] < 0, -turn_foot, turn_foot)
+        angle = quat.angle(turn_foot)
+        share = (config.max_turn / angle.clamp_min(1e-6)).clamp(max=1.0)
+        turn_foot = quat.slerp(ident, turn_foot, share)  # a foot the style points far off is turned only part way
         turn_foot = quat.normalize(ident + locked_offsets(turn_foot - ident, planted, config.bridge))
         foot = quat.mul_vec(turn_foot, o - a)  # the toes about the ankle, turned
-        target = a + locked_offsets(heel_at - a, planted, config.bridge)
+        target = eased_targets(a, heel_at, planted, config.bridge)
         if swing is not None:
             toe_h = foot_heights(gpos, spec, floor)[:, 2 * side + 1] + (target + foot - o)[:, 1]
-            target[:, 1] += _swing_lift(toe_h, ref_gpos[:, toe], planted, swing, config.step)
+            target[:, 1] += _swing_lift(toe_h, ref_gpos[:, toe], planted, swing, config.step,
+                                         config.max_lift)
         # never through the floor: the ankle above its rest height, the toes (as the foot is turned) above the floor
         target[:, 1] = target[:, 1].clamp_min(ankle_floor)
         target[:, 1] += (toe_floor - (target[:, 1] + foot[:, 1])).clamp_min(0.0)
