@@ -131,17 +131,17 @@ def two_bone_ik(grot: torch.Tensor, gpos: torch.Tensor, lrot: torch.Tensor, pare
                 target: torch.Tensor, reach: float | None = None) -> torch.Tensor:
     """New local rotations ``(T, J, 4)`` so the ``ankle`` reaches ``target (T, 3)``; the foot keeps its global rotation
     (``grot``, ``gpos (T, J, 3)``: the motion's global rotations and positions, ``lrot (T, J, 4)`` its local ones). The
-    knee bends in its current plane. ``reach`` (a share of the leg's length, below 1): beyond it the leg straightens
-    softly, approaching full length without reaching it (no hyper-extended knee, no snap); None: straight up to
-    full length."""
+    knee bends in its current plane. ``reach`` (a share of the leg's length, below 1): beyond it (or beyond the leg's
+    own extension, where the motion has it straighter) the leg straightens softly, approaching full length without
+    reaching it (no hyper-extended knee, no snap); None: straight up to full length."""
     h, k, a = gpos[:, hip], gpos[:, knee], gpos[:, ankle]
     l1 = (k - h).norm(dim=-1, keepdim=True)
     l2 = (a - k).norm(dim=-1, keepdim=True)
     to_t = target - h
     d = to_t.norm(dim=-1, keepdim=True)
     full = l1 + l2
-    if reach is not None:
-        soft = reach * full
+    if reach is not None:  # softly from this share of the leg's length, or from as straight as the motion has it
+        soft = torch.maximum(reach * full, (a - h).norm(dim=-1, keepdim=True).clamp(max=full - 2e-4))
         span = (full - soft).clamp_min(1e-6)
         d = torch.where(d > soft, soft + span * (1 - torch.exp(-(d - soft) / span)), d)
     d = d.clamp(min=(l1 - l2).abs() + 1e-4, max=full - 1e-4)
@@ -284,14 +284,15 @@ def cleanup_feet(motion: Motion, reference: Motion | None = None, spec: Canonica
 
 def _hips_drop(gpos: torch.Tensor, targets: list[torch.Tensor], spec: CanonicalSpec, config: FeetConfig) -> torch.Tensor:
     """``(T,)`` metres to lower the hips by so every leg reaches its ankle target (``targets``: ``(T, 3)`` per leg of
-    ``spec.legs``) within :attr:`FeetConfig.stretch` of its length: the least drop per frame, spread smoothly over
+    ``spec.legs``) within :attr:`FeetConfig.stretch` of its length (or its own extension, where straighter): the least drop per frame, spread smoothly over
     :attr:`FeetConfig.bridge` frames either side (a running maximum, then a running mean: never less than needed)."""
     need = torch.zeros(gpos.shape[0], dtype=gpos.dtype)
     for (hip, knee, ankle), target in zip(spec.legs, targets):
         full = float((gpos[0, knee] - gpos[0, hip]).norm() + (gpos[0, ankle] - gpos[0, knee]).norm())
-        cap = config.stretch * full
+        own = (gpos[:, ankle] - gpos[:, hip]).norm(dim=-1).clamp(max=full - 2e-4)
+        cap = torch.maximum(torch.full_like(own, config.stretch * full), own)  # as straight as the motion has it
         rel = gpos[:, hip] - target
-        flat = rel[:, [0, 2]].norm(dim=-1).clamp(max=cap)
+        flat = torch.minimum(rel[:, [0, 2]].norm(dim=-1), cap)
         need = torch.maximum(need, (rel[:, 1] - (cap ** 2 - flat ** 2).sqrt()).clamp_min(0.0))
     if float(need.max()) <= 0:
         return need

@@ -359,7 +359,7 @@ def apply_item(style, model, facts: str, video: str, clip: Path, where: Path, op
 
     def one(path, folder):
         return apply_file(style, model, path, folder, options.strength, options.seed, options.neutralize, joint_map,
-                          options.preview, options.tempo)
+                          options.preview, options.tempo, options.feet)
 
     # an FBX/glTF clip's result: the same format (or --format), keyed onto its own file (one Blender per process)
     run = in_format(one, lambda: _converter(options), options.format)

@@ -535,7 +535,7 @@ def _diffusion_runner(args, joint_map):
     if warning:
         print(warning, file=sys.stderr)
     return (lambda path, where: apply_file(style, model, path, where, options.strength, options.seed, options.neutralize,
-                                           joint_map, options.preview, options.tempo)), files
+                                           joint_map, options.preview, options.tempo, options.feet)), files
 
 
 def _park_runner(args, joint_map):

@@ -104,13 +104,14 @@ class Shown:
 
 def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0,
                    neutralize: str = "auto", joint_map: dict | None = None, preview: bool = True,
-                   span: int | None = None, margin: int | None = None) -> tuple[dict, Shown | None]:
+                   span: int | None = None, margin: int | None = None, feet: str = "auto") -> tuple[dict, Shown | None]:
     """:func:`video2style.pipeline.apply_file` for a long BVH take, a span of ``span`` canonical frames at a
     time (default :data:`SPAN_FRAMES`, :data:`MARGIN` either side; see the module's docstring); writes
     ``out_dir/<name>.bvh``. Returns what apply_file returns (``skating_*`` pooled over the spans, each span
     measured on its own; ``still_share``, ``arm_motion_share`` and ``content_share`` the smallest of any span's)
     with ``streamed``, the number of spans, and, with ``preview``, its first
-    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply_file's preview."""
+    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply_file's preview. ``feet``:
+    auto, lock or off (:func:`transfer.spans.clean_feet`, each span on its own)."""
     from transfer.bundle import load_models
     from transfer.device import model_device
     from transfer.spans import stylize_spans
@@ -143,17 +144,19 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
 
     shown = min(n, int(MAX_PREVIEW_SECONDS * CANONICAL.fps)) if preview else 0
     kept = {"content": [], "result": [], "written": []}  # the previewed frames
-    sums = {"skating_before": 0.0, "skating_after": 0.0, "skating_content": 0.0}
+    sums = {"skating_before": 0.0, "skating_after": 0.0, "skating_content": 0.0, "skating_low_steps": 0.0}
     decided: dict = {}
     out_path = out_dir / f"{path.stem}.bvh"
-    spans = 0
+    spans = cleaned = 0
     per = CANONICAL.fps / frames.fps
     with BvhSpanWriter(out_path, frames.skeleton, frames.layout, frames.num_frames, frames.fps) as writer:
         for done in stylize_spans(load_models(model_device(model)), style, model, take.canonical, n, strength, seed,
-                                  neutralize, floor=feet_min, span=span, margin=margin, report=decided):
+                                  neutralize, floor=feet_min, span=span, margin=margin, report=decided, feet=feet):
             c, d = done.start, done.stop
             for key, value in done.skating.items():
-                sums[key] += value * (d - c)
+                if key in sums:
+                    sums[key] += value * (d - c)
+            cleaned += bool(done.skating.get("feet_cleaned"))
             k0, k1 = take.source_frames(c, d)
             if k1 > k0:
                 on_file = carry_edit(frames[k0:k1], done.content, done.result, rig, offset=k0 * per - done.lo)
@@ -167,7 +170,8 @@ def apply_long_bvh(style, model, path: Path, out_dir: Path, strength: float = 0.
             spans += 1
     info = {"input": str(path), "frames": n, "detected": decided.pop("detected"),
             "neutralized": decided.pop("neutralized"), **{k: v / n for k, v in sums.items()}, **decided,
-            "tempo": 1.0, "streamed": spans, "seconds_transfer": time.time() - t0, "output": str(out_path),
+            "tempo": 1.0, "streamed": spans, "feet_cleaned": cleaned == spans, "feet_cleaned_spans": cleaned,
+            "seconds_transfer": time.time() - t0, "output": str(out_path),
             "rolls_conformed": take.conform,
             "stream_note": f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
                            f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the take); "

@@ -15,6 +15,7 @@ class ApplyOptions:
     seed: int = 0
     neutralize: str = "auto"
     tempo: str = "off"
+    feet: str = "auto"  # the foot cleanup: auto, lock or off (transfer.spans.clean_feet)
     preview: bool = True
     joint_map: Path | None = None
     format: str | None = None  # None: each result in its clip's own format
@@ -32,6 +33,12 @@ class ApplyOptions:
             raise ValueError(f"--{e}") from None
         if self.tempo not in ("off", "auto"):
             resolve_tempo(None, self.tempo)  # a number: checked without a style
+        from transfer.spans import check_feet
+
+        try:
+            check_feet(self.feet)
+        except ValueError as e:
+            raise ValueError(f"--{e}") from None
 
 
 def _seed(v: str):
@@ -41,7 +48,7 @@ def _seed(v: str):
 
 
 def add_apply_options(parser: argparse.ArgumentParser) -> None:
-    """``--strength``, ``--tempo``, ``--seed``, ``--neutralize``, ``--no-preview``, ``--joint-map`` and the clip format
+    """``--strength``, ``--tempo``, ``--feet``, ``--seed``, ``--neutralize``, ``--no-preview``, ``--joint-map`` and the clip format
     options (``--format``, ``--armature``, ``--action``: :func:`video2style.interchange.add_arguments`)."""
     from video2style.interchange import add_arguments
 
@@ -51,6 +58,10 @@ def add_apply_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tempo", default="off",
                         help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
                              "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5")
+    parser.add_argument("--feet", choices=["auto", "lock", "off"], default="auto",
+                        help="foot cleanup: auto (default): lock the feet where the content plants them, unless that "
+                             "would make them slide more; lock: always; off: the feet as the style moved them "
+                             "(spikes are drawn out in every mode)")
     parser.add_argument("--seed", type=_seed, default=0,
                         help="noise seed: the same seed gives the same result (default: %(default)s)")
     parser.add_argument("--neutralize", choices=["auto", "always", "never"], default="auto",
@@ -67,7 +78,7 @@ def add_apply_options(parser: argparse.ArgumentParser) -> None:
 def apply_options(args) -> ApplyOptions:
     """The :class:`ApplyOptions` a parsed command line gave (:func:`add_apply_options`), checked."""
     options = ApplyOptions(strength=args.strength, seed=args.seed, neutralize=args.neutralize, tempo=args.tempo,
-                           preview=not args.no_preview, joint_map=args.joint_map, format=getattr(args, "format", None),
+                           feet=getattr(args, "feet", "auto"), preview=not args.no_preview, joint_map=args.joint_map, format=getattr(args, "format", None),
                            armature=getattr(args, "armature", None), action=getattr(args, "action", None))
     options.check()
     return options

@@ -320,10 +320,13 @@ def example_part(canonical: Motion, features: torch.Tensor, offset: float = 0.0)
 
 
 def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, seed: int = 0, neutralize: str = "auto",
-               joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off") -> dict:
+               joint_map: dict | None = None, preview: bool = True, tempo: str | float = "off",
+               feet: str = "auto") -> dict:
     """:func:`transfer.spans.stylize_motion` on one BVH (with the shipped models on ``model``'s device); writes
     ``out_dir/<name>.bvh`` on the clip's skeleton (+ preview). ``tempo`` (see :func:`transfer.tempo.resolve_tempo`):
-    the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same)."""
+    the clip is first time-warped to play this many times as fast (0.7: slower, more frames; the path is the same;
+    the feet are cleaned against the warped content's contacts). ``feet``: auto, lock or off
+    (:func:`transfer.spans.clean_feet`)."""
     from transfer.device import model_device
     from transfer.tempo import resolve_tempo
 
@@ -333,14 +336,15 @@ def apply_file(style, model, path: Path, out_dir: Path, strength: float = 0.5, s
 
     long_take = Path(path).suffix.lower() == BVH_SUFFIX and is_long_take(path)
     if long_take and speed == 1.0:  # a span at a time: memory does not grow with the take (issue 25)
-        info, shown = apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview)
+        info, shown = apply_long_bvh(style, model, path, out_dir, strength, seed, neutralize, joint_map, preview=preview,
+                                     feet=feet)
         if shown is not None:
             info.update(_long_take_preview(style, Path(path), shown, info, Path(out_dir)))
         info["seconds"] = time.time() - t0
         return info
     clip = warp_clip(read_clip(path, joint_map), speed)
     result, decided = stylize_motion(load_models(model_device(model)), style, model, clip.canonical, strength, seed,
-                                     neutralize)
+                                     neutralize, feet)
     decided["tempo"] = speed
     extra = example_panels(style, clip.canonical.num_frames)
     from video2style.summary import motion_change

@@ -1,8 +1,8 @@
 """What apply and batch tell a user about each clip: one short line in plain words, the numbers in ``report.json``.
 
 The line says what was changed, how strongly the style shows (how far the joints moved from the content's
-places, on average), how often the feet slide before (the content) and after (the result), and any guard
-that held the style back. Everything else :func:`video2style.pipeline.apply_file` decided (the motion
+places, on average), how often the feet slide before (the content) and after (the result), how much of that is low
+steps (as in the example, where its toes stay low in swing too), and any guard that held the style back. Everything else :func:`video2style.pipeline.apply_file` decided (the motion
 encoder's reading, the guards' shares, the sentences of :func:`video2style.pipeline.apply_notes`) goes into
 the clip's row of ``report.json`` (:func:`clip_details`).
 """
@@ -36,6 +36,7 @@ def motion_change(content, result) -> dict:
 
 
 HELD = 0.995
+LOW_STEPS = 0.05  # metres: an example whose toes clear the floor by less in swing takes low steps
 
 
 def _pct(x: float) -> str:
@@ -81,11 +82,26 @@ def clip_line(info: dict) -> str:
     if changed:
         parts.append(", ".join(changed))
     if "skating_after" in info:
-        parts.append(f"feet slide in {_pct(info['skating_content'])} of frames before, {_pct(info['skating_after'])} after")
+        parts.append(f"feet slide in {_pct(info['skating_content'])} of frames before, {_pct(info['skating_after'])} after"
+                     + _low_steps(info))
+        if info.get("feet_cleaned") is False:
+            parts.append("feet as the style moved them (locking them would have made them slide more)")
     held = guards_held(info)
     if held:
         parts.append("held back: " + "; ".join(held))
     return "; ".join(parts)
+
+
+def _low_steps(info: dict) -> str:
+    """What of the result's sliding is low steps, not planted feet sliding (``skating_low_steps``: a foot low and
+    fast while the content's is in swing), and whether the example steps that low too (``swing_example``)."""
+    low, after = info.get("skating_low_steps", 0.0), info.get("skating_after", 0.0)
+    if not after or low < 0.5 * after or _pct(low) == "0%":
+        return ""
+    swing = info.get("swing_example")
+    if swing is not None and swing < LOW_STEPS:
+        return f" ({_pct(low)} low steps, as in the example: its toes clear the floor by {100 * swing:.1f} cm)"
+    return f" ({_pct(low)} low steps)"
 
 
 def clip_details(info: dict) -> dict:
@@ -93,7 +109,8 @@ def clip_details(info: dict) -> dict:
     from video2style.pipeline import apply_notes
 
     keys = ("input", "output", "preview", "player", "frames", "file_frames", "file_fps", "tempo", "detected",
-            "neutralized", "skating_content", "skating_before", "skating_after", "still_share", "arm_motion_share",
+            "neutralized", "skating_content", "skating_before", "skating_after", "skating_low_steps", "feet_cleaned",
+            "swing_example", "swing_result", "still_share", "arm_motion_share",
             "content_share", "rolls_conformed", "change", "seconds", "seconds_transfer", "preview_note", "stream_note")
     row = {k: info[k] for k in keys if k in info}
     row["summary"] = clip_line(info)
