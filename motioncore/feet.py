@@ -5,9 +5,10 @@ the feet's height at contacts, swing clearance).
 Contacts are per foot joint of :attr:`motioncore.skeleton.CanonicalSpec.feet` (Foot_L, Toes_L, Foot_R, Toes_R: heel
 and toe of each foot). A joint enters a contact where it is low and slow (:attr:`ContactConfig.height_on`,
 ``speed_on``) and stays in it while it is not clearly high or fast (``height_off``, ``speed_off``): one noisy frame
-neither starts nor breaks a contact. Heights are above each joint's own floor (its lowest height over the motion,
-or a take's, ``floor``), less the joint's rest height above the rest pose's lowest foot joint, as
-:func:`motioncore.representation.foot_contacts` reads them.
+neither starts nor breaks a contact; gaps of up to :attr:`ContactConfig.fill_frames` frames are filled. Heights are
+above each joint's own floor (its lowest height over the motion, or a take's, ``floor``): the ankle's own lowest
+place, not the toes' (:func:`motioncore.representation.foot_contacts` also takes off the ankle's rest height above
+the toes, so that an ankle reads as low 5 cm higher up).
 """
 from __future__ import annotations
 
@@ -15,7 +16,6 @@ from dataclasses import dataclass
 
 import torch
 
-from motioncore.kinematics import rest_positions
 from motioncore.skeleton import CANONICAL, CanonicalSpec
 
 
@@ -27,7 +27,8 @@ class ContactConfig:
     speed_on: float = 0.30
     height_off: float = 0.07
     speed_off: float = 0.50
-    min_frames: int = 2  # runs shorter than this are dropped; gaps shorter than this are filled
+    min_frames: int = 2  # runs shorter than this are dropped
+    fill_frames: int = 2  # gaps between two runs of at most this many frames are filled
 
 
 def _check_positions(gpos: torch.Tensor, spec: CanonicalSpec, name: str) -> None:
@@ -35,19 +36,13 @@ def _check_positions(gpos: torch.Tensor, spec: CanonicalSpec, name: str) -> None
         raise ValueError(f"{name}: expected positions (T, {spec.num_joints}, 3), got {tuple(gpos.shape)}")
 
 
-def rest_foot_offsets(spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
-    """``(4,)``: each foot joint's rest height above the rest pose's lowest foot joint (the ankle sits higher)."""
-    rest = rest_positions(spec.skeleton.offsets, spec.skeleton.parents)[list(spec.feet), 1]
-    return rest - rest.min()
-
-
 def foot_heights(gpos: torch.Tensor, spec: CanonicalSpec = CANONICAL, floor: torch.Tensor | None = None) -> torch.Tensor:
     """``(T, 4)``: each foot joint's height above its floor (``floor (4,)``: its lowest height; default over
-    ``gpos (T, J, 3)``), less its rest offset (:func:`rest_foot_offsets`)."""
+    ``gpos (T, J, 3)``)."""
     _check_positions(gpos, spec, "foot_heights")
     y = gpos[:, list(spec.feet), 1]
     floor = y.amin(0) if floor is None else floor.to(y)
-    return y - floor - rest_foot_offsets(spec).to(y)
+    return y - floor
 
 
 def foot_speeds(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
@@ -60,12 +55,13 @@ def foot_speeds(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL)
     return torch.cat([v, v[-1:]])
 
 
-def _fill_and_drop(flags: torch.Tensor, min_frames: int) -> torch.Tensor:
-    """``flags (T,)`` with gaps shorter than ``min_frames`` between runs filled, then runs shorter dropped."""
+def _fill_and_drop(flags: torch.Tensor, min_frames: int, fill_frames: int) -> torch.Tensor:
+    """``flags (T,)`` with gaps of at most ``fill_frames`` between runs filled, then runs shorter than ``min_frames``
+    dropped."""
     out = flags.clone()
     runs = contact_runs(out)
     for (s0, e0), (s1, _) in zip(runs, runs[1:]):
-        if s1 - e0 < min_frames:
+        if s1 - e0 <= fill_frames:
             out[e0:s1] = True
     for s, e in contact_runs(out):
         if e - s < min_frames:
@@ -87,7 +83,7 @@ def contact_flags(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICA
         state = on[t] | (state & hold[t])
         out[t] = state
     for j in range(out.shape[1]):
-        out[:, j] = _fill_and_drop(out[:, j], config.min_frames)
+        out[:, j] = _fill_and_drop(out[:, j], config.min_frames, config.fill_frames)
     return out
 
 

@@ -103,12 +103,13 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
     check_feet(feet)
     before = motion_skating(raw.slice(frames.start, frames.stop))
     limit = SPIKE_LIMIT * max(peak_acceleration(ref.global_positions(), ref.fps), example.peak_acc)
-    smooth = limit_acceleration(raw, limit)
+    smooth = limit_acceleration(raw, limit) if limit > 0 else raw  # a still content without an example: no measure
     cleaned, used = smooth, False
     if feet != "off":
         # the legs' IK may add spikes of its own on a style far from the content: drawn out last
-        cleaned = limit_acceleration(cleanup_feet(smooth, reference=ref, floor=floor, swing=example.swing), limit,
-                                     frozen=planted_legs(ref, floor))
+        cleaned = cleanup_feet(smooth, reference=ref, floor=floor, swing=example.swing)
+        if limit > 0:
+            cleaned = limit_acceleration(cleaned, limit, frozen=planted_legs(ref, floor))
         used = True
         if feet == "auto" and motion_skating(cleaned.slice(frames.start, frames.stop)) > before:
             cleaned, used = smooth, False

@@ -85,7 +85,7 @@ def clip_line(info: dict) -> str:
         parts.append(f"feet slide in {_pct(info['skating_content'])} of frames before, {_pct(info['skating_after'])} after"
                      + _low_steps(info))
         if info.get("feet_cleaned") is False:
-            parts.append("feet as the style moved them (locking them would have made them slide more)")
+            parts.append("feet left as styled (locked, they slid more)")
     held = guards_held(info)
     if held:
         parts.append("held back: " + "; ".join(held))
@@ -100,7 +100,7 @@ def _low_steps(info: dict) -> str:
         return ""
     swing = info.get("swing_example")
     if swing is not None and swing < LOW_STEPS:
-        return f" ({_pct(low)} low steps, as in the example: its toes clear the floor by {100 * swing:.1f} cm)"
+        return f" ({_pct(low)} low steps, as in the example)"
     return f" ({_pct(low)} low steps)"
 
 
