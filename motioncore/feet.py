@@ -24,9 +24,9 @@ class ContactConfig:
     """Thresholds of a contact with hysteresis (metres, metres per second) and its shortest run (frames)."""
 
     height_on: float = 0.05
-    speed_on: float = 0.30
+    speed_on: float = 0.25
     height_off: float = 0.07
-    speed_off: float = 0.50
+    speed_off: float = 0.30
     min_frames: int = 2  # runs shorter than this are dropped
     fill_frames: int = 2  # gaps between two runs of at most this many frames are filled
 
