@@ -91,9 +91,7 @@ def eased_targets(free: torch.Tensor, held: torch.Tensor, locked: torch.Tensor, 
     """Targets ``(T, C)``: ``held (T, C)`` wherever ``locked (T,)``, ``free (T, C)`` (the motion's own path) moved by the
     held frames' corrections eased across the frames between (:func:`locked_offsets`), and next to each locked run
     drawn onto its held place so that the path comes to rest there and leaves from rest (over ``bridge`` frames, half
-    a short gap at most): a foot the motion swings fast into a contact is slowed into it, not stopped at once. Before
-    the first run and after the last, where the motion starts or ends within ``bridge`` frames of it, the held place
-    holds."""
+    a short gap at most): a foot the motion swings fast into a contact is slowed into it, not stopped at once."""
     if free.shape != held.shape or free.ndim != 2 or locked.shape != free.shape[:1]:
         raise ValueError(f"eased_targets: expected free and held (T, C) and locked (T,), got {tuple(free.shape)}, "
                          f"{tuple(held.shape)}, {tuple(locked.shape)}")
@@ -101,14 +99,7 @@ def eased_targets(free: torch.Tensor, held: torch.Tensor, locked: torch.Tensor, 
     runs = contact_runs(locked.bool())
     if not runs:
         return free.clone()
-    locked = locked.bool().clone()
-    held = held.clone()
-    (s0, _), (_, e1) = runs[0], runs[-1]
-    if s0 < bridge:
-        held[:s0], locked[:s0] = held[s0], True
-    if t - e1 < bridge:
-        held[e1:], locked[e1:] = held[e1 - 1], True
-    runs = contact_runs(locked)
+    locked = locked.bool()
     offset = locked_offsets(held - free, locked, bridge)
     near = torch.zeros_like(free)  # the nearest locked run's held place, and how much it pulls
     w = torch.zeros(t, dtype=free.dtype)

@@ -1,7 +1,8 @@
 """Spikes out (issue 50): a motion's joint accelerations held under a limit, the rest of it left as it is.
 
 A frame where some joint accelerates faster than the limit (a window's seam, a guard's or an IK's jump) is drawn
-towards the halfway pose of the frames either side of it: every joint's local rotation slerped, the root's position
+towards the halfway pose of the frames either side of it (the first or last frame, where the next one spikes, towards
+the straight line on from its neighbours): every joint's local rotation slerped, the root's position
 lerped, by :attr:`SpikeConfig.rate`, and again on the next pass while a frame is still over the limit (at most
 :attr:`SpikeConfig.passes` passes). Frames under the limit are never touched, so a smooth motion comes back
 unchanged.
@@ -55,12 +56,17 @@ def limit_acceleration(motion: Motion, limit: float, config: SpikeConfig = Spike
     for _ in range(max(0, int(config.passes))):
         acc = joint_accelerations(fk(lrot, lpos, parents)[1], motion.fps).amax(1)  # (T,)
         bad = acc > limit
-        bad[0] = bad[-1] = False
-        if not bool(bad.any()):
+        if not bool(bad[1:-1].any()):
             break
+        # a spike at the second frame may be the first frame's (and so at the end): an end goes on in a straight line
+        bad[0], bad[-1] = bool(bad[1]), bool(bad[-2])
         idx = bad.nonzero()[:, 0]
-        mid_rot = quat.slerp(lrot[idx - 1], lrot[idx + 1], 0.5)
-        mid_pos = 0.5 * (lpos[idx - 1, 0] + lpos[idx + 1, 0])
+        inner = (idx > 0) & (idx < t - 1)
+        near = torch.where(idx == 0, 1, torch.where(idx == t - 1, t - 2, idx + 1))  # inner: the next frame
+        far = torch.where(idx == 0, 2, torch.where(idx == t - 1, t - 3, idx - 1))  # inner: the previous frame
+        share = torch.where(inner, 0.5, 2.0)  # inner: halfway between; an end: past its neighbour, as far again
+        mid_rot = quat.slerp(lrot[far], lrot[near], share[:, None])
+        mid_pos = torch.lerp(lpos[far, 0], lpos[near, 0], share[:, None])
         lrot, lpos = lrot.clone(), lpos.clone()
         new = quat.slerp(lrot[idx], mid_rot, config.rate)
         lrot[idx] = new if frozen is None else torch.where(frozen[idx, :, None], lrot[idx], new)
