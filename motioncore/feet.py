@@ -167,20 +167,39 @@ def swing_clearance(gpos: torch.Tensor, fps: float, spec: CanonicalSpec = CANONI
     return float(torch.tensor(peaks).median()) if peaks else None
 
 
+def _slides_split(result: torch.Tensor, content: torch.Tensor, fps: float, spec: CanonicalSpec,
+                  floor: torch.Tensor | None, config: ContactConfig, name: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(T - 1, 2)`` each: a foot of ``result`` sliding (:func:`motioncore.skating.skating_feet`), and the content's
+    same foot in swing at both frames (no heel or toe contact)."""
+    from motioncore.skating import skating_feet
+
+    _check_positions(result, spec, name)
+    if content.shape != result.shape:
+        raise ValueError(f"{name}: expected content {tuple(result.shape)}, got {tuple(content.shape)}")
+    flags = contact_flags(content, fps, spec, floor, config)
+    swinging = ~(flags[:, 0::2] | flags[:, 1::2])  # (T, 2): left, right
+    return skating_feet(result, fps, spec=spec), swinging[1:] & swinging[:-1]
+
+
+def planted_slides(result: torch.Tensor, content: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL,
+                   floor: torch.Tensor | None = None, config: ContactConfig = ContactConfig()) -> float:
+    """The share of frame transitions of ``result (T, J, 3)`` in which a foot reads as sliding
+    (:func:`motioncore.skating.skating_feet`) where the content's (``content (T, J, 3)``, frame for frame) is planted
+    at either frame (a heel or toe contact, :func:`contact_flags`): a planted foot sliding. 0 for fewer than 2
+    frames."""
+    if result.shape[0] < 2:
+        return 0.0
+    slide, swinging = _slides_split(result, content, fps, spec, floor, config, "planted_slides")
+    return float((slide & ~swinging).any(1).float().mean())
+
+
 def low_steps(result: torch.Tensor, content: torch.Tensor, fps: float, spec: CanonicalSpec = CANONICAL,
               floor: torch.Tensor | None = None, config: ContactConfig = ContactConfig()) -> float:
     """The share of frame transitions of ``result (T, J, 3)`` in which a foot reads as sliding
     (:func:`motioncore.skating.skating_feet`) while the content's (``content (T, J, 3)``, frame for frame) is in swing
     at both frames (no heel or toe contact, :func:`contact_flags`): a low step skimming the floor, not a planted foot
     sliding. 0 for fewer than 2 frames."""
-    from motioncore.skating import skating_feet
-
-    _check_positions(result, spec, "low_steps")
-    if content.shape != result.shape:
-        raise ValueError(f"low_steps: expected content {tuple(result.shape)}, got {tuple(content.shape)}")
     if result.shape[0] < 2:
         return 0.0
-    flags = contact_flags(content, fps, spec, floor, config)
-    swinging = ~(flags[:, 0::2] | flags[:, 1::2])  # (T, 2): left, right
-    swinging = swinging[1:] & swinging[:-1]
-    return float((skating_feet(result, fps, spec=spec) & swinging).any(1).float().mean())
+    slide, swinging = _slides_split(result, content, fps, spec, floor, config, "low_steps")
+    return float((slide & swinging).any(1).float().mean())

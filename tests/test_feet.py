@@ -186,7 +186,7 @@ def test_strength_zero_returns_the_content_itself_and_writes_it_back_within_a_te
     assert float(err) < 1e-4  # metres: the content on its own skeleton within 0.1 mm
 
 
-def test_auto_leaves_the_feet_when_locking_them_slides_more(monkeypatch):
+def test_auto_leaves_the_feet_when_locking_them_slides_more_where_planted(monkeypatch):
     import transfer.spans as spans
     from transfer.spans import ExampleFeet, clean_feet
 

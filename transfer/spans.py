@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import torch
 
 from motioncore.cleanup import cleanup_feet
-from motioncore.feet import contact_flags, low_steps, peak_acceleration, swing_clearance
+from motioncore.feet import contact_flags, low_steps, peak_acceleration, planted_slides, swing_clearance
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
 from motioncore.representation import FEATURES, decode, encode, facing_angle
@@ -77,6 +77,11 @@ def example_feet(example: torch.Tensor | None) -> ExampleFeet:
     return ExampleFeet(swing_clearance(gpos, motion.fps), peak_acceleration(gpos, motion.fps))
 
 
+def _planted_slides(motion: Motion, ref: Motion, frames: slice) -> float:
+    part, content = motion.slice(frames.start, frames.stop), ref.slice(frames.start, frames.stop)
+    return planted_slides(part.global_positions(), content.global_positions(), part.fps)
+
+
 def planted_legs(content: Motion, floor: torch.Tensor | None = None, spec=CANONICAL) -> torch.Tensor:
     """``(T, J)`` bool: the joints of each leg (hip to toes) at the frames the ``content``'s foot is planted (heel or
     toe, :func:`motioncore.feet.contact_flags`; ``floor``: a take's), which the foot cleanup solved."""
@@ -90,19 +95,24 @@ def planted_legs(content: Motion, floor: torch.Tensor | None = None, spec=CANONI
 
 
 def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, example: ExampleFeet,
-               frames: slice) -> tuple[Motion, dict]:
+               frames: slice, content_acc: float | None = None) -> tuple[Motion, dict]:
     """The last stage of one span of the apply path: ``raw`` (decoded; ``ref`` the content, the same frames) with no
-    joint accelerating faster than :data:`SPIKE_LIMIT` times the content's or the ``example``'s peak
+    joint accelerating faster than :data:`SPIKE_LIMIT` times the content's (``content_acc``, a take's; default
+    ``ref``'s own) or the ``example``'s peak
     (:func:`motioncore.smooth.limit_acceleration`), and its feet, as ``--feet`` says: cleaned against the content's
     contacts (:func:`motioncore.cleanup.cleanup_feet`, the example's swing clearance) with ``lock``; left as they
-    are with ``off``; with ``auto`` cleaned unless that makes the span's own ``frames`` slide more than the decoded
-    result did (then left as they are: cleanup never makes it worse). Returns the motion and the sliding shares of
-    ``frames`` (``skating_before``: the decoded result's; ``skating_after``, ``skating_content``), the share of them
-    where a foot is low and fast while the content's is in swing (``skating_low_steps``: low steps, not slides) and
-    ``feet_cleaned``."""
+    are with ``off``; with ``auto`` cleaned unless that makes the span's own ``frames`` slide more where the content
+    plants a foot than the decoded result did (:func:`motioncore.feet.planted_slides`; then left as they are: cleanup
+    never makes planted feet slide more). Returns the motion and the sliding shares of ``frames``
+    (``skating_before``: the decoded result's; ``skating_after``, ``skating_content``;
+    :func:`motioncore.skating.motion_skating`), the share of them where a foot is low and fast while the content's
+    is in swing (``skating_low_steps``: low steps, not slides; a cleaned foot put back on the floor may read so where
+    the decoded one floated) and ``feet_cleaned``."""
     check_feet(feet)
     before = motion_skating(raw.slice(frames.start, frames.stop))
-    limit = SPIKE_LIMIT * max(peak_acceleration(ref.global_positions(), ref.fps), example.peak_acc)
+    if content_acc is None:
+        content_acc = peak_acceleration(ref.global_positions(), ref.fps)
+    limit = SPIKE_LIMIT * max(content_acc, example.peak_acc)
     smooth = limit_acceleration(raw, limit) if limit > 0 else raw  # a still content without an example: no measure
     cleaned, used = smooth, False
     if feet != "off":
@@ -111,7 +121,7 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
         if limit > 0:
             cleaned = limit_acceleration(cleaned, limit, frozen=planted_legs(ref, floor))
         used = True
-        if feet == "auto" and motion_skating(cleaned.slice(frames.start, frames.stop)) > before:
+        if feet == "auto" and _planted_slides(cleaned, ref, frames) > _planted_slides(raw, ref, frames):
             cleaned, used = smooth, False
     part, content = cleaned.slice(frames.start, frames.stop), ref.slice(frames.start, frames.stop)
     return cleaned, {"skating_before": before, "skating_after": motion_skating(part),
@@ -122,7 +132,8 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
 @torch.no_grad()
 def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n: int, strength: float = 0.5,
                   seed: int = 0, neutralize: str = "auto", floor: torch.Tensor | None = None, span: int | None = None,
-                  margin: int = 0, report: dict | None = None, feet: str = "auto") -> Iterator[StyledSpan]:
+                  margin: int = 0, report: dict | None = None, feet: str = "auto",
+                  content_acc: float | None = None) -> Iterator[StyledSpan]:
     """Apply a loaded style (``style``: a :class:`transfer.style_file.Style`; ``model``: the prior with its adapters)
     to a canonical content motion of ``n`` frames, ``content(a, b)`` giving its frames ``a..b-1`` (asked for
     in order, a frame either side of a span for the features' velocities; the first 8 s again when the first
@@ -133,7 +144,8 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
     each span's own). ``neutralize``: auto (only when the motion encoder reads the first span's start, 8 s, as a
     styled clip confidently), always or never. ``report`` receives ``detected`` and ``neutralized``, then with each
     span the smallest ``still_share``, ``arm_motion_share`` and ``content_share`` so far. ``feet``: auto, lock or off
-    (:func:`clean_feet`). ``strength`` 0 gives the content itself, span by span (nothing read, styled or cleaned).
+    (:func:`clean_feet`; ``content_acc``: the content's peak joint acceleration over the whole motion, m/s², which
+    the spike limit is a multiple of; None: each span's own). ``strength`` 0 gives the content itself, span by span (nothing read, styled or cleaned).
     On ``model``'s device (the bundle's models there too); the motions are on the CPU."""
     check_feet(feet)
     learned, config = style.configs()
@@ -195,7 +207,8 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
             # in place where no later span reads these frames (the last): one copy of a clip's features at a time
             f_ext = bundle.denormalize(out.cpu(), inplace=d == n)
             raw = decoder(config, reference=ref, example=style.example)(f_ext, ref.fps, start_yaw=yaw, start_xz=xz)
-            cleaned, skating = clean_feet(raw, ref, feet, floor, example_read, slice(c - lo, d - lo))
+            cleaned, skating = clean_feet(raw, ref, feet, floor, example_read, slice(c - lo, d - lo),
+                                          content_acc)
             yield StyledSpan(c, d, lo, ref, cleaned, skating)
             c = d
             if c < n:
