@@ -292,3 +292,27 @@ def _hips_drop(gpos: torch.Tensor, targets: list[torch.Tensor], spec: CanonicalS
     peak = torch.nn.functional.max_pool1d(padded, 2 * r + 1, stride=1)
     padded = torch.nn.functional.pad(peak[None], (r, r), mode="replicate")[0]
     return torch.nn.functional.avg_pool1d(padded, 2 * r + 1, stride=1)[0]
+
+
+def relock_legs(motion: Motion, locked: Motion, planted: torch.Tensor, spec: CanonicalSpec = CANONICAL,
+                config: FeetConfig = FeetConfig()) -> Motion:
+    """``motion`` (a small change of ``locked``, e.g. spikes drawn out of it; the same frames) with each leg solved
+    again, at the frames its foot is ``planted (T, 2)`` (left, right), so that its ankle and foot are where
+    ``locked`` has them: a change to the hips or spine moves no planted foot."""
+    if locked.num_frames != motion.num_frames or planted.shape != (motion.num_frames, len(spec.legs)):
+        raise ValueError(f"relock_legs: expected locked of {motion.num_frames} frames and planted "
+                         f"({motion.num_frames}, {len(spec.legs)}), got {locked.num_frames} and {tuple(planted.shape)}")
+    if not bool(planted.any()):
+        return motion
+    g_lock, p_lock = fk(locked.lrot, locked.lpos, spec.skeleton.parents)
+    lrot = motion.lrot
+    for side, (hip, knee, ankle) in enumerate(spec.legs):
+        on = planted[:, side].bool()
+        if not bool(on.any()):
+            continue
+        grot, gpos = fk(lrot, motion.lpos, spec.skeleton.parents)
+        target = torch.where(on[:, None], p_lock[:, ankle], gpos[:, ankle])
+        turned = grot.clone()
+        turned[:, ankle] = torch.where(on[:, None], g_lock[:, ankle], grot[:, ankle])
+        lrot = two_bone_ik(turned, gpos, lrot, spec.skeleton.parents, hip, knee, ankle, target, config.reach)
+    return Motion(motion.skeleton, lrot, motion.lpos, motion.fps)

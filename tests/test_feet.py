@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from motioncore import quat
-from motioncore.cleanup import FeetConfig, _swing_lift, cleanup_feet, eased_targets
+from motioncore.cleanup import FeetConfig, _swing_lift, cleanup_feet, eased_targets, relock_legs
 from motioncore.feet import (
     ContactConfig,
     contact_flags,
@@ -217,3 +217,18 @@ def test_the_line_tells_low_steps_as_in_the_example_from_slides():
 
 def test_contact_config_is_typed_and_feet_config_holds_it():
     assert FeetConfig().contacts == ContactConfig() and ContactConfig().height_off > ContactConfig().height_on
+
+
+def test_planted_legs_are_solved_again_where_the_hips_moved():
+    locked = _standing(frames=10)
+    lpos = locked.lpos.clone()
+    lpos[:, 0, 0] += 0.02  # the hips moved 2 cm (spikes drawn out of them): the feet went with them
+    moved = Motion(SK, locked.lrot, lpos, locked.fps)
+    planted = torch.zeros(10, 2, dtype=torch.bool)
+    planted[:, 0] = True  # the left foot planted, the right one not
+    out = relock_legs(moved, locked, planted)
+    l_ankle, r_ankle = CANONICAL.legs[0][2], CANONICAL.legs[1][2]
+    got, was, went = out.global_positions(), locked.global_positions(), moved.global_positions()
+    assert (got[:, l_ankle] - was[:, l_ankle]).norm(dim=-1).max() < 1e-3  # back where it was planted
+    assert torch.allclose(got[:, r_ankle], went[:, r_ankle], atol=1e-5)  # a foot in swing goes with the hips
+    assert torch.allclose(out.lpos, moved.lpos)  # the hips stay where they were moved

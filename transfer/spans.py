@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import torch
 
-from motioncore.cleanup import cleanup_feet
+from motioncore.cleanup import cleanup_feet, relock_legs
 from motioncore.feet import contact_flags, low_steps, peak_acceleration, planted_slides, swing_clearance
 from motioncore.motion import Motion
 from motioncore.skeleton import CANONICAL
@@ -56,6 +56,7 @@ def check_feet(feet: str) -> None:
         raise ValueError(f"feet: expected one of {', '.join(FEET_MODES)}, got {feet!r}")
 
 
+SPIKE_ROUNDS = 3  # spikes drawn out, then the planted legs solved again, at most this many times
 SPIKE_LIMIT = 1.4  # a result's joints accelerate at most this many times as fast as the content's or the example's
 
 
@@ -82,24 +83,26 @@ def _planted_slides(motion: Motion, ref: Motion, frames: slice) -> float:
     return planted_slides(part.global_positions(), content.global_positions(), part.fps)
 
 
-def planted_legs(content: Motion, floor: torch.Tensor | None = None, spec=CANONICAL) -> torch.Tensor:
-    """``(T, J)`` bool: the joints of each leg (hip to toes) at the frames the ``content``'s foot is planted (heel or
-    toe, :func:`motioncore.feet.contact_flags`; ``floor``: a take's), which the foot cleanup solved."""
+def planted_legs(content: Motion, floor: torch.Tensor | None = None, spec=CANONICAL) -> tuple[torch.Tensor, torch.Tensor]:
+    """Where the ``content``'s feet are planted (heel or toe, :func:`motioncore.feet.contact_flags`; ``floor``: a
+    take's): ``(T, 2)`` bool, left and right foot, and ``(T, J)`` bool, the joints of those legs (hip to toes),
+    which the foot cleanup solved."""
     flags = contact_flags(content.global_positions(), content.fps, spec, floor)
+    legs = torch.stack([flags[:, 2 * side] | flags[:, 2 * side + 1] for side in range(len(spec.legs))], 1)
     out = torch.zeros(content.num_frames, spec.num_joints, dtype=torch.bool)
     for side, leg in enumerate(spec.legs):
-        planted = flags[:, 2 * side] | flags[:, 2 * side + 1]
         for j in (*leg, spec.feet[2 * side + 1]):
-            out[:, j] = planted
-    return out
+            out[:, j] = legs[:, side]
+    return legs, out
 
 
 def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, example: ExampleFeet,
                frames: slice, content_acc: float | None = None) -> tuple[Motion, dict]:
     """The last stage of one span of the apply path: ``raw`` (decoded; ``ref`` the content, the same frames) with no
     joint accelerating faster than :data:`SPIKE_LIMIT` times the content's (``content_acc``, a take's; default
-    ``ref``'s own) or the ``example``'s peak
-    (:func:`motioncore.smooth.limit_acceleration`), and its feet, as ``--feet`` says: cleaned against the content's
+    ``ref``'s own) or the ``example``'s peak (:func:`motioncore.smooth.limit_acceleration`; after the cleanup again,
+    in up to :data:`SPIKE_ROUNDS` rounds, the planted legs held and solved again, :func:`motioncore.cleanup.relock_legs`),
+    and its feet, as ``--feet`` says: cleaned against the content's
     contacts (:func:`motioncore.cleanup.cleanup_feet`, the example's swing clearance) with ``lock``; left as they
     are with ``off``; with ``auto`` cleaned unless that makes the span's own ``frames`` slide more where the content
     plants a foot than the decoded result did (:func:`motioncore.feet.planted_slides`; then left as they are: cleanup
@@ -118,8 +121,14 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
     if feet != "off":
         # the legs' IK may add spikes of its own on a style far from the content: drawn out last
         cleaned = cleanup_feet(smooth, reference=ref, floor=floor, swing=example.swing)
-        if limit > 0:
-            cleaned = limit_acceleration(cleaned, limit, frozen=planted_legs(ref, floor))
+        if limit > 0:  # the legs' IK may add spikes of its own on a style far from the content: drawn out last, the
+            # planted legs solved again where the hips moved
+            legs, frozen = planted_legs(ref, floor)
+            for _ in range(SPIKE_ROUNDS):
+                limited = limit_acceleration(cleaned, limit, frozen=frozen)
+                if limited is cleaned:
+                    break
+                cleaned = relock_legs(limited, cleaned, legs)
         used = True
         if feet == "auto" and _planted_slides(cleaned, ref, frames) > _planted_slides(raw, ref, frames):
             cleaned, used = smooth, False
