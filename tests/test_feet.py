@@ -232,3 +232,24 @@ def test_planted_legs_are_solved_again_where_the_hips_moved():
     assert (got[:, l_ankle] - was[:, l_ankle]).norm(dim=-1).max() < 1e-3  # back where it was planted
     assert torch.allclose(got[:, r_ankle], went[:, r_ankle], atol=1e-5)  # a foot in swing goes with the hips
     assert torch.allclose(out.lpos, moved.lpos)  # the hips stay where they were moved
+
+
+def test_a_leg_reaching_too_far_straightens_softly_and_bends_forward():
+    from motioncore.cleanup import two_bone_ik
+    from motioncore.kinematics import fk
+
+    m = _standing(frames=5)
+    hip, knee, ankle = CANONICAL.legs[0]
+    x = torch.tensor([1.0, 0.0, 0.0])
+    m.lrot[:, hip] = quat.from_axis_angle(x, torch.tensor(-0.3)).expand(5, 4)  # a knee bent forward 0.6 rad
+    m.lrot[:, knee] = quat.from_axis_angle(x, torch.tensor(0.6)).expand(5, 4)
+    grot, gpos = fk(m.lrot, m.lpos, SK.parents)
+    full = float((gpos[0, knee] - gpos[0, hip]).norm() + (gpos[0, ankle] - gpos[0, knee]).norm())
+    target = gpos[:, hip] + torch.tensor([0.0, -1.0, 0.3]) * torch.linspace(0.9, 1.1, 5)[:, None] * full / 1.044
+    lrot = two_bone_ik(grot, gpos, m.lrot, SK.parents, hip, knee, ankle, target, reach=0.985)
+    _, out = fk(lrot, m.lpos, SK.parents)
+    reach = (out[:, ankle] - out[:, hip]).norm(dim=-1)
+    assert (reach <= full - 1e-4 + 1e-6).all() and (reach[1:] >= reach[:-1] - 1e-6).all()  # no snap
+    assert reach[2] < full - 3e-3  # a target at full length: the leg still a little bent (softly straightening)
+    bend = out[:, knee] - 0.5 * (out[:, hip] + out[:, ankle])
+    assert (bend[:, 2] > -1e-5).all() and bend[0, 2] > 0.05  # the knee bends forward, never backwards
