@@ -56,9 +56,10 @@ def main() -> None:
     m = load_models()
     clips = [read_clip(p) for p in args.content]
     print(f"strength {args.strength}, --feet {args.feet}, seed {args.seed}; cm; acc = result's peak / max(content's, "
-          "example's); swing = result's toe clearance / example's; slide % before -> after (content)")
+          "example's); swing = result's toe clearance / example's; slide % before -> after (the content's; of it low "
+          "steps, the content's foot in swing; 'left': --feet auto left the feet as styled)")
     head = f"{'style':>26} x {'content':<30} {'drift med/worst':>15} {'acc':>17} {'jump':>5} {'floor med/worst':>15} " \
-           f"{'swing res/ex':>12} {'slide % b->a (c)':>17}"
+           f"{'swing res/ex':>12} {'slide % b->a (c; low)':>22}"
     print(head)
     rows = []
     for sp in styles:
@@ -78,7 +79,8 @@ def main() -> None:
                        acc_ratio=acc, acc=fm.peak_acc, acc_content=fm.peak_acc_content, acc_example=ex_acc,
                        jump=fm.jump_worst, floor_median=fm.floor_median, floor_worst=fm.floor_worst, swing=swing,
                        swing_example=ex_swing, before=info["skating_before"], after=info["skating_after"],
-                       content_slide=info["skating_content"])
+                       content_slide=info["skating_content"], low_steps=info.get("skating_low_steps", 0.0),
+                       cleaned=info.get("feet_cleaned", True))
             row["jump_content"] = feet_measures(c_pos, c_pos, result.fps).jump_worst  # the content's own, same contacts
             rows.append(row)
             sw = "-" if swing is None else f"{100 * swing:.1f}"
@@ -86,7 +88,8 @@ def main() -> None:
             print(f"{sp.stem[:26]:>26} x {clip.path.stem[:30]:<30} {100 * fm.drift_median:6.2f} / {100 * fm.drift_worst:5.2f} "
                   f"{acc:5.2f} ({fm.peak_acc:4.1f}/{max(fm.peak_acc_content, ex_acc):4.1f}) {100 * fm.jump_worst:5.2f} "
                   f"{100 * fm.floor_median:6.2f} / {100 * fm.floor_worst:5.2f} {sw:>5} / {sx:>5} "
-                  f"{100 * row['before']:5.1f} -> {100 * row['after']:5.1f} ({100 * row['content_slide']:4.1f})",
+                  f"{100 * row['before']:5.1f} -> {100 * row['after']:5.1f} ({100 * row['content_slide']:4.1f}; "
+                  f"{100 * row['low_steps']:4.1f}){'' if row['cleaned'] else ' left'}",
                   flush=True)
     if rows:
         t = {k: torch.tensor([r[k] for r in rows]) for k in ("drift_median", "drift_worst", "acc_ratio", "jump",
@@ -98,7 +101,9 @@ def main() -> None:
               f"jump worst {100 * t['jump'].max():.2f} cm (<= 1.5; the contents' own worst "
               f"{100 * max(r['jump_content'] for r in rows):.2f}), {int((t['jump'] <= 0.015).sum())} of {len(rows)} within; floor median {100 * t['floor_median'].median():.2f} cm, "
               f"worst {100 * t['floor_worst'].max():.2f} cm (<= 0.5); sliding after > before on {worse} of {len(rows)} "
-              f"(mean {100 * t['before'].mean():.1f}% -> {100 * t['after'].mean():.1f}%)")
+              f"(mean {100 * t['before'].mean():.1f}% -> {100 * t['after'].mean():.1f}%, of it low steps "
+              f"{100 * sum(r['low_steps'] for r in rows) / len(rows):.1f}%); feet left as styled on "
+              f"{sum(not r['cleaned'] for r in rows)}")
     if args.strength0 and styles:
         import tempfile
 
