@@ -65,12 +65,14 @@ def test_contacts_hold_through_a_noisy_frame_with_hysteresis():
 def test_a_floating_standing_result_is_put_on_the_content_s_floor():
     content = _standing()
     result = _standing(lift=0.02)  # the style lifted the whole body 2 cm: the feet float where the content stands
-    out = cleanup_feet(result, reference=content)
+    out = cleanup_feet(result, reference=content, config=FeetConfig(lower_hips=True))
     feet = list(CANONICAL.feet)
     got, want = out.global_positions()[:, feet], content.global_positions()[:, feet]
     assert (got - want).norm(dim=-1).max() < 1e-3  # within 1 mm of the content's floor (before: 2 cm above it)
     m = feet_measures(out.global_positions(), content.global_positions(), CANONICAL.fps)
     assert m.floor_worst < 1e-3 and m.drift_worst < 1e-3 and m.contacts == 4
+    kept = cleanup_feet(result, reference=content)  # by default the hips stay: the straight legs cannot reach down
+    assert torch.allclose(kept.lpos, result.lpos)
 
 
 def test_cleanup_holds_a_sliding_planted_foot_without_a_jump():

@@ -372,7 +372,7 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
                         calibrate: bool = False, style_cache: Path | None = None, progress=print) -> Iterator[str]:
     """The second unseen-style protocol (:mod:`evaluation.dev_styles`): each of the five dev styles learned from
     its walk as ``learn`` learns (the shipped models, content from the dataset cache or the bank), applied as
-    ``apply`` applies (:func:`transfer.apply.stylize_motion`) at ``strength`` to the neutral clip of each action;
+    ``apply`` applies (:func:`transfer.spans.stylize_motion`) at ``strength`` to the neutral clip of each action;
     writes ``out_dir/dev_styles.md`` and ``dev_styles.json``; yields the report lines. ``calibrate``: each style
     calibrated (:mod:`transfer.amount`; off: gain 1, the default). ``style_cache``: a folder keeping the learned styles between runs."""
     from evaluation.dev_styles import (
@@ -381,7 +381,8 @@ def evaluate_dev_styles(dev_archive: Path, seen_archive: Path, out_dir: Path, st
         read_archive,
         run_dev_protocol,
     )
-    from transfer.apply import read_motion, stylize_motion
+    from transfer.apply import read_motion
+    from transfer.spans import stylize_motion
     from transfer.bundle import load_models
     from transfer.learn import learn_style
     from transfer.style_config import LearnConfig
