@@ -6,9 +6,11 @@ result's ankle at one place (its mean over the contact, at the content's ankle h
 toe contact where the heel is up (toe-off) holds the toes so, the ankle following them with the foot's own pitch.
 The correction each locked frame needs eases out of a contact and into the next across the swing between them
 (smoothstep, over at most :attr:`FeetConfig.bridge` frames each side), so locking adds no jump or spike of its own.
-The hips stay where the style put them and each foot keeps its global orientation (the style's posture;
-:attr:`FeetConfig.plant` "content" places the content's planted foot instead, and :attr:`FeetConfig.lower_hips`
-lowers the hips where a planted foot is out of reach, both off by default: they read as less of the style); each leg
+The hips stay where the style put them (the style's posture; :attr:`FeetConfig.lower_hips` lowers them where a
+planted foot is out of reach, off by default: it read as much less of the style). A planted foot is the content's
+planted foot and its roll, turned and moved over the ground to where the result's foot is, each joint held through
+its own contact (:attr:`FeetConfig.plant` "style" keeps the foot's own orientation instead, the heel or the toes
+held as above); elsewhere each foot keeps its global orientation, the correction eased out. Each leg
 is solved so the ankle reaches its target with the knee bending in its own plane, straightening softly near full
 reach (:attr:`FeetConfig.reach`: never hyper-extended, no snap). A foot whose kept pitch would put its toes
 through the floor is lifted until they touch it; a swing lower than the style example's own toe clearance is
@@ -41,11 +43,11 @@ class FeetConfig:
     step: float = 0.10  # metres the content's toe travels in a swing for it to count as a step (swing clearance)
     max_lift: float = 0.04  # metres a swing is raised by at most towards the example's clearance
     max_turn: float = 1.0  # radians a planted foot is turned by at most towards the content's planted foot
-    # how a planted foot is placed: "style", its own pitch kept (the heel held where the content's heel is planted, the
-    # toes where only its toes are, the ankle following with the foot's own pitch); "content", the content's planted
-    # foot and its roll, turned and moved to where the result's foot is. "style" by default: on the Bandai-2 held-out
-    # val protocol "content" read as less of the style (docs/RESULTS.md, issue 50)
-    plant: str = "style"
+    # how a planted foot is placed: "content", the content's planted foot and its roll, turned and moved to where the
+    # result's foot is (no jump, on the content's floor); "style", its own pitch kept (the heel held where the content's
+    # heel is planted, the toes where only its toes are, the ankle following with the foot's own pitch: on the Bandai-2
+    # held-out val protocol it read 1 point more of the style, with feet jumping up to 9 cm; docs/RESULTS.md, issue 50)
+    plant: str = "content"
     # lower the hips where a planted foot is out of the leg's reach (off by default: on the same protocol it read as
     # much less of the style, SRA 69.6 -> 52.6 %; a style whose hips float leaves its feet short of the floor)
     lower_hips: bool = False

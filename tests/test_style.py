@@ -161,7 +161,7 @@ def test_cleanup_plants_a_foot_pitched_through_the_floor_as_the_content_plants_i
     toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
     before = m.global_positions()
     assert (before[:, toe, 1] < -0.03).all()
-    out = cleanup_feet(m, reference=flat, config=FeetConfig(plant="content"))
+    out = cleanup_feet(m, reference=flat)  # the default: planted as the content plants it
     after = out.global_positions()
     content = flat.global_positions()
     assert torch.allclose(after[:, toe], content[:, toe], atol=2e-3)  # on the floor where the content's toes are
@@ -171,11 +171,11 @@ def test_cleanup_plants_a_foot_pitched_through_the_floor_as_the_content_plants_i
 
 
 def test_cleanup_lifts_a_foot_whose_toes_would_go_through_the_floor_and_keeps_its_pitch():
-    m = _standing(pitch_deg=40.0)  # the default: the style's own foot, its toes lifted out of the floor
+    m = _standing(pitch_deg=40.0)  # plant "style": the style's own foot, its toes lifted out of the floor
     flat = _standing()
     toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
     before = m.global_positions()
-    out = cleanup_feet(m, reference=flat)
+    out = cleanup_feet(m, reference=flat, config=FeetConfig(plant="style"))
     grot, after = fk(out.lrot, out.lpos, CANONICAL.skeleton.parents)
     assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-3)  # on the floor, not above it
     g_before = fk(m.lrot, m.lpos, CANONICAL.skeleton.parents)[0]
