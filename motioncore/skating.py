@@ -16,6 +16,14 @@ SKATING_SPEED = 0.5  # metres per second horizontally (2.5 cm per frame at 20 fp
 def skating_frames(positions: torch.Tensor, fps: float, height: float = SKATING_HEIGHT, speed: float = SKATING_SPEED,
                    spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
     """``(T - 1,)`` bool: transition ``t -> t+1`` skates (definition in :func:`foot_skating_ratio`)."""
+    slide = skating_feet(positions, fps, height, speed, spec)
+    return slide[:, 0] | slide[:, 1]
+
+
+def skating_feet(positions: torch.Tensor, fps: float, height: float = SKATING_HEIGHT, speed: float = SKATING_SPEED,
+                 spec: CanonicalSpec = CANONICAL) -> torch.Tensor:
+    """``(T - 1, 2)`` bool: the left, the right foot skates on transition ``t -> t+1`` of ``positions (T, J, 3)``
+    (definition in :func:`foot_skating_ratio`)."""
     if positions.ndim != 3 or positions.shape[1:] != (spec.num_joints, 3) or positions.shape[0] < 2:
         raise ValueError(f"foot_skating_ratio: expected positions (T >= 2, {spec.num_joints}, 3), got {tuple(positions.shape)}")
     feet = positions[:, list(spec.feet)].double()  # (T, 4, 3): Foot_L, Toes_L, Foot_R, Toes_R
@@ -23,7 +31,7 @@ def skating_frames(positions: torch.Tensor, fps: float, height: float = SKATING_
     low = (h[1:] < height) & (h[:-1] < height)
     fast = (feet[1:, :, [0, 2]] - feet[:-1, :, [0, 2]]).norm(dim=-1) * fps > speed
     slide = low & fast  # (T - 1, 4)
-    return (slide[:, 0] & slide[:, 1]) | (slide[:, 2] & slide[:, 3])  # a whole foot (ankle and toes) slides
+    return torch.stack([slide[:, 0] & slide[:, 1], slide[:, 2] & slide[:, 3]], 1)  # a whole foot (ankle and toes)
 
 
 def foot_skating_ratio(positions: torch.Tensor | Sequence[torch.Tensor], fps: float = CANONICAL.fps,

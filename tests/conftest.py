@@ -57,7 +57,7 @@ def fake_pipeline(monkeypatch):
 
         calls["apply"].append(str(clip))
         calls.setdefault("apply_args", []).append((request.strength, request.seed, request.neutralize, joint_map,
-                                                   request.preview, request.tempo))
+                                                   request.preview, request.tempo, request.feet))
         out_dir.mkdir(parents=True, exist_ok=True)
         bvh = out_dir / f"{clip.stem}.bvh"
         bvh.write_text("bvh")

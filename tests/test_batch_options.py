@@ -37,8 +37,9 @@ def test_batch_passes_every_apply_option_to_apply(tmp_path, fake_pipeline):
     videos, content = make_library(tmp_path)
     out = tmp_path / "out"
     assert main(["batch", str(videos / "strut.mp4"), "--content", str(content), "-o", str(out), "--strength", "0.7",
-                 "--seed", "3", "--tempo", "0.8", "--neutralize", "never", "--no-preview"]) == 0
-    assert fake_pipeline["apply_args"] and set(fake_pipeline["apply_args"]) == {(0.7, 3, "never", None, False, "0.8")}
+                 "--seed", "3", "--tempo", "0.8", "--neutralize", "never", "--no-preview", "--feet", "lock"]) == 0
+    assert fake_pipeline["apply_args"] and set(fake_pipeline["apply_args"]) == {(0.7, 3, "never", None, False, "0.8",
+                                                                                 "lock")}
 
 
 def test_batch_refuses_a_bad_apply_option_in_one_line_before_any_work(tmp_path, fake_pipeline, capsys):

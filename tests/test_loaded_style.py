@@ -65,7 +65,7 @@ def test_every_request_field_has_its_option_in_the_field_order():
 
     text = build_parser()._subparsers._group_actions[0].choices["apply"].format_help()
     flags = [f.metadata["flags"][0] for f in fields(ApplyOptions) if f.metadata["flags"]]
-    assert flags == ["--strength", "--tempo", "--seed", "--neutralize", "--no-preview", "--joint-map"]
+    assert flags == ["--strength", "--tempo", "--feet", "--seed", "--neutralize", "--no-preview", "--joint-map"]
     at = [text.index(f"  {flag}") for flag in flags + ["--armature", "--action", "--format"]]
     assert at == sorted(at)
 

@@ -145,12 +145,14 @@ def test_streamed_apply_equals_the_whole_clip_apply(tmp_path, monkeypatch, loade
     clip = tmp_path / "take.bvh"
     write_bvh(clip, _walk(450, 30.0))  # 300 canonical frames: 5 windows
     monkeypatch.setattr(apply_mod, "WINDOW_BATCH", 2)  # 3 batches, finished across the spans' ends
-    whole = style.apply(clip, tmp_path / "whole", ApplyOptions(preview=False, neutralize=neutralize))
+    # --feet lock: auto keeps or leaves each span's cleanup as its own sliding says (measured per span, as the guards
+    # reading time means read each span), so only the locked feet are the same whole and streamed
+    whole = style.apply(clip, tmp_path / "whole", ApplyOptions(preview=False, neutralize=neutralize, feet="lock"))
     assert whole.streamed is None
     monkeypatch.setattr(long_takes, "LONG_TAKE_SECONDS", 10.0)  # 15 s: a long take now
     monkeypatch.setattr(long_takes, "SPAN_FRAMES", 45)
     monkeypatch.setattr(long_takes, "MARGIN", 20)
-    streamed = style.apply(clip, tmp_path / "streamed", ApplyOptions(preview=True, neutralize=neutralize))
+    streamed = style.apply(clip, tmp_path / "streamed", ApplyOptions(preview=True, neutralize=neutralize, feet="lock"))
     assert streamed.streamed == 7 and "span" in streamed.stream_note
     assert streamed.neutralized == whole.neutralized == (neutralize == "always")
     a, la = read_bvh(whole.output)

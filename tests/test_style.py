@@ -2,7 +2,7 @@ import pytest
 import torch
 
 from mlcore.windows import crossfade, crossfade_overlap, window_starts
-from motioncore.cleanup import ankle_targets, cleanup_feet, contact_runs, two_bone_ik
+from motioncore.cleanup import FeetConfig, cleanup_feet, contact_runs, eased_targets, two_bone_ik
 from motioncore.kinematics import fk
 from motioncore.representation import FEATURES, encode, foot_contacts
 from motioncore.skeleton import CANONICAL
@@ -102,9 +102,11 @@ def test_contact_runs_and_pinning():
     flags = torch.tensor([0, 1, 1, 1, 0, 0, 1, 1], dtype=torch.bool)
     assert contact_runs(flags) == [(1, 4), (6, 8)]
     ankle = torch.stack([torch.arange(8.0) * 0.1, torch.full((8,), 0.2), torch.zeros(8)], -1)
-    tgt = ankle_targets(ankle, flags, blend=1, floor=0.3)
-    assert torch.allclose(tgt[1:4, 0], torch.full((3,), 0.2))  # pinned to the run's mean
-    assert (tgt[:, 1] >= 0.3).all()  # never below the floor
+    held = ankle.clone()
+    held[1:4, 0] = 0.2
+    tgt = eased_targets(ankle, held, flags, bridge=2)
+    assert torch.allclose(tgt[1:4, 0], torch.full((3,), 0.2))  # held where the run holds it
+    assert (tgt[0] - held[1]).norm() < (ankle[0] - held[1]).norm()  # drawn towards the contact coming in
 
 
 def test_cleanup_removes_sliding_of_a_planted_foot():
@@ -137,21 +139,30 @@ def _standing(frames=6, pitch_deg=0.0):
     return Motion(sk, lrot, lpos, 20.0)
 
 
-def test_cleanup_lifts_a_foot_whose_toes_would_go_through_the_floor_and_keeps_its_pitch():
+def test_cleanup_plants_a_foot_pitched_through_the_floor_as_the_content_plants_it():
     m = _standing(pitch_deg=40.0)  # about X: the forward-pointing toes go 4 cm below the floor
-    flat = _standing()
+    flat = _standing()  # the content stands flat on the floor
     toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
     before = m.global_positions()
     assert (before[:, toe, 1] < -0.03).all()
-    out = cleanup_feet(m, reference=flat)
-    grot, after = fk(out.lrot, out.lpos, CANONICAL.skeleton.parents)
-    assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-3)  # on the floor, not above it
-    lift = after[:, ankle, 1] - before[:, ankle, 1]
-    assert torch.allclose(lift, -before[:, toe, 1], atol=1e-3)  # lifted by the depth
-    g_before = fk(m.lrot, m.lpos, CANONICAL.skeleton.parents)[0]
-    assert ((grot[:, ankle] * g_before[:, ankle]).sum(-1).abs() > 1 - 1e-5).all()  # the foot keeps its pitch
+    out = cleanup_feet(m, reference=flat)  # the default: planted as the content plants it
+    after = out.global_positions()
+    content = flat.global_positions()
+    assert torch.allclose(after[:, toe], content[:, toe], atol=2e-3)  # on the floor where the content's toes are
+    assert torch.allclose(after[:, ankle], content[:, ankle], atol=2e-3)
     right = CANONICAL.skeleton.index("Toes_R")
     assert torch.allclose(after[:, right], before[:, right], atol=1e-4)  # a foot on the floor is left alone
+
+
+def test_cleanup_lifts_a_foot_whose_toes_would_go_through_the_floor_and_keeps_its_pitch():
+    m = _standing(pitch_deg=40.0)  # plant "style": the style's own foot, its toes lifted out of the floor
+    flat = _standing()
+    toe, ankle = CANONICAL.skeleton.index("Toes_L"), CANONICAL.skeleton.index("Foot_L")
+    out = cleanup_feet(m, reference=flat, config=FeetConfig(plant="style"))
+    grot, after = fk(out.lrot, out.lpos, CANONICAL.skeleton.parents)
+    assert torch.allclose(after[:, toe, 1], torch.zeros(m.num_frames), atol=1e-3)  # on the floor, not above it
+    g_before = fk(m.lrot, m.lpos, CANONICAL.skeleton.parents)[0]
+    assert ((grot[:, ankle] * g_before[:, ankle]).sum(-1).abs() > 1 - 1e-5).all()  # the foot keeps its pitch
 
 
 def test_cleanup_lets_the_toes_go_as_low_as_the_content_s_do():

@@ -32,7 +32,6 @@ from pathlib import Path
 
 import torch
 
-from motioncore.cleanup import cleanup_feet
 from motioncore.files import atomic_write_text
 from motioncore.ik_fit import decode_via_positions
 from motioncore.representation import decode, encode
@@ -45,13 +44,18 @@ def cleaned(features_fn, data, decoder_for=lambda content, example: decode):
     """Wrap a method returning normalised features so its output goes through decoding (``decoder_for(content
     motion, style example's raw features)`` gives the decode function: from the rotation channels by default, from
     the positions as ``apply --method park`` does, or as :func:`transfer.apply.decoder` says for a style, its
-    stray-limb guard included), foot cleanup and encoding again; normalised as the protocol's ``data``
+    stray-limb guard included), apply's last stage (:func:`transfer.spans.clean_feet` at ``--feet auto``: spikes
+    drawn out, the feet cleaned) and encoding again; normalised as the protocol's ``data``
     (:class:`mlcore.dataset.MotionDataset`) is."""
+    from transfer.spans import clean_feet, example_feet
+
     def transfer(content_feats, style_example, style_label, content_label):
         out = features_fn(content_feats, style_example, style_label, content_label)
         content_m = decode(data.denormalize(content_feats))
-        out_m = decoder_for(content_m, data.denormalize(style_example))(data.denormalize(out), content_m.fps)
-        return data.standardize(encode(cleanup_feet(out_m, reference=content_m)))
+        example = data.denormalize(style_example)
+        out_m = decoder_for(content_m, example)(data.denormalize(out), content_m.fps)
+        result, _ = clean_feet(out_m, content_m, "auto", None, example_feet(example), slice(0, content_m.num_frames))
+        return data.standardize(encode(result))
 
     return transfer
 

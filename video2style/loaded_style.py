@@ -74,29 +74,31 @@ class LoadedStyle:
 
     def stylize(self, motion: Motion, request: ApplyOptions = ApplyOptions()) -> tuple[Motion, dict]:
         """A canonical content motion (canonical fps, ``T`` frames) stylised as ``request`` says (its ``strength``,
-        ``seed`` and ``neutralize``; :func:`transfer.spans.stylize_motion`): the result (``T`` frames on the same
-        path, on the CPU) and what the method decided (``detected``, ``neutralized``, the skating ratios, the
-        guards' shares: :class:`video2style.result.ApplyResult`'s fields of those names)."""
+        ``seed``, ``neutralize`` and ``feet``; :func:`transfer.spans.stylize_motion`): the result (``T`` frames on the
+        same path, on the CPU) and what the method decided (``detected``, ``neutralized``, the skating ratios, whether
+        the feet were cleaned, the toes' swing clearance, the guards' shares: :class:`video2style.result.ApplyResult`'s
+        fields of those names)."""
         from transfer.spans import stylize_motion
 
         return stylize_motion(self.bundle, self.style, self.model, motion, request.strength, request.seed,
-                              request.neutralize)
+                              request.neutralize, request.feet)
 
     def spans(self, content, n: int, request: ApplyOptions, **kw):
-        """:func:`transfer.spans.stylize_spans` of this style at ``request``'s ``strength``, ``seed`` and
-        ``neutralize``: a canonical motion of ``n`` frames given by ``content(a, b)``, styled a span at a time
-        (``kw``: ``floor``, ``span``, ``margin``, ``report``)."""
+        """:func:`transfer.spans.stylize_spans` of this style at ``request``'s ``strength``, ``seed``,
+        ``neutralize`` and ``feet``: a canonical motion of ``n`` frames given by ``content(a, b)``, styled a span at a
+        time (``kw``: ``floor``, ``span``, ``margin``, ``report``, ``content_acc``)."""
         from transfer.spans import stylize_spans
 
         return stylize_spans(self.bundle, self.style, self.model, content, n, request.strength, request.seed,
-                             request.neutralize, **kw)
+                             request.neutralize, feet=request.feet, **kw)
 
     def apply(self, path: Path, out_dir: Path, request: ApplyOptions = ApplyOptions(),
               joint_map: dict | None = None) -> ApplyResult:
         """The style applied to one BVH clip (or video) as ``request`` says: writes ``out_dir/<name>.bvh`` on the
         clip's skeleton (+ its preview and player data unless ``request.preview`` is off). ``request.tempo`` (see
         :func:`transfer.tempo.resolve_tempo`): the clip is first time-warped to play this many times as fast
-        (0.7: slower, more frames; the path is the same). A BVH take longer than
+        (0.7: slower, more frames; the path is the same; the feet are cleaned against the warped content's contacts).
+        ``request.feet``: auto, lock or off (:func:`transfer.spans.clean_feet`). A BVH take longer than
         :data:`video2style.long_takes.LONG_TAKE_SECONDS` at tempo 1 is applied a span at a time
         (:func:`video2style.long_takes.apply_long_bvh`). ``joint_map``: the map ``request.joint_map`` names, as read
         (:func:`motioncore.retarget.load_joint_map`) by a caller that reads it once before any work, as the commands

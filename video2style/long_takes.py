@@ -4,11 +4,11 @@ A take longer than :data:`LONG_TAKE_SECONDS` is read from its file a span of fra
 (:class:`motioncore.bvh_stream.BvhFrames`), resampled and retargeted to the canonical skeleton, styled by apply's one
 path (:func:`transfer.spans.stylize_spans`: the whole clip's diffusion windows, then each span guarded, decoded and
 its feet cleaned, seeing :data:`MARGIN` frames either side), carried back to the file's skeleton and appended to the
-output (:class:`motioncore.bvh_stream.BvhSpanWriter`: a temporary file renamed at the end). Two things are the whole
-take's and gathered by a first pass over it: the floor (:func:`place_on_floor`'s shift) and each foot joint's lowest
-height (the contact channels). The result equals the whole-clip path's (the tests: within 0.05 cm, guards off)
-except where a foot contact lasts longer than the margin across a span's end, and except for the guards that read
-time means (the posture match, the arms' hold on a clip done in place, the content keeper, the stray-limb guard):
+output (:class:`motioncore.bvh_stream.BvhSpanWriter`: a temporary file renamed at the end). Three things are the whole
+take's and gathered by a first pass over it: the floor (:func:`place_on_floor`'s shift), each foot joint's lowest
+height (the contact channels) and the peak joint acceleration (apply's spike limit, :func:`transfer.spans.clean_feet`). The result equals the whole-clip path's (the tests: within 0.05 cm, guards off)
+except where a foot contact lasts longer than the margin across a span's end, except that ``--feet auto`` keeps or
+leaves each span's foot cleanup as that span's sliding says, and except for the guards that read time means (the posture match, the arms' hold on a clip done in place, the content keeper, the stray-limb guard):
 each span's are its own (:data:`SPAN_FRAMES`, 5 minutes), not the whole take's.
 """
 from __future__ import annotations
@@ -21,6 +21,7 @@ from pathlib import Path
 import torch
 
 from motioncore.bvh_stream import BvhFrames, BvhSpanWriter
+from motioncore.feet import peak_acceleration
 from motioncore.ik_fit import conform_rolls, off_roll_convention
 from motioncore.motion import Motion, resample_span, resampled_frames
 from motioncore.retarget import (
@@ -111,7 +112,9 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
     module's docstring); writes ``out_dir/<name>.bvh``. Returns the result (``skating_*`` pooled over the spans,
     each span measured on its own; ``still_share``, ``arm_motion_share`` and ``content_share`` the smallest of any
     span's; ``streamed``, the number of spans; no preview yet) and, with ``request.preview``, its first
-    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply's preview."""
+    :data:`video2style.preview.MAX_PREVIEW_SECONDS` (:class:`Shown`; else None) for apply's preview.
+    ``request.feet``: auto, lock or off (:func:`transfer.spans.clean_feet`, each span on its own; ``feet_cleaned``:
+    every span's feet were cleaned, ``feet_cleaned_spans``: how many were)."""
     t0 = time.time()
     span = SPAN_FRAMES if span is None else span  # the module's, read at the call (tests make them small)
     margin = MARGIN if margin is None else margin
@@ -125,13 +128,16 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
     rig = make_rig(frames.skeleton, first, joint_map, source=str(path))
     take = _Take(frames, rig, n)
 
-    # pass 1: the floor and the feet's lowest heights, a span at a time
-    lowest, feet_min = torch.empty(n), None
+    # pass 1: the floor, the feet's lowest heights and the peak joint acceleration, a span at a time
+    lowest, feet_min, content_acc = torch.empty(n), None, 0.0
     for a in range(0, n, span):
-        part = take.canonical(a, min(n, a + span))
-        lowest[a:a + part.num_frames] = lowest_feet(part)
-        m = part.global_positions()[:, list(CANONICAL.feet), 1].amin(0)
+        part = take.canonical(max(0, a - 1), min(n, a + span + 1))  # a frame either side: the accelerations there
+        gpos = part.global_positions()
+        inner = slice(a - max(0, a - 1), a - max(0, a - 1) + min(n, a + span) - a)
+        lowest[a:min(n, a + span)] = lowest_feet(part.slice(inner.start, inner.stop))
+        m = gpos[inner, list(CANONICAL.feet), 1].amin(0)
         feet_min = m if feet_min is None else torch.minimum(feet_min, m)
+        content_acc = max(content_acc, peak_acceleration(gpos, CANONICAL.fps))
     take.shift = floor_shift(lowest)
     feet_min = feet_min - take.shift
     del lowest
@@ -140,16 +146,19 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
 
     shown = min(n, int(MAX_PREVIEW_SECONDS * CANONICAL.fps)) if request.preview else 0
     kept = {"content": [], "result": [], "written": []}  # the previewed frames
-    sums = {"skating_before": 0.0, "skating_after": 0.0, "skating_content": 0.0}
+    sums = {"skating_before": 0.0, "skating_after": 0.0, "skating_content": 0.0, "skating_low_steps": 0.0}
     decided: dict = {}
     out_path = out_dir / f"{path.stem}.bvh"
-    spans = 0
+    spans = cleaned = 0
     per = CANONICAL.fps / frames.fps
     with BvhSpanWriter(out_path, frames.skeleton, frames.layout, frames.num_frames, frames.fps) as writer:
-        for done in style.spans(take.canonical, n, request, floor=feet_min, span=span, margin=margin, report=decided):
+        for done in style.spans(take.canonical, n, request, floor=feet_min, span=span, margin=margin, report=decided,
+                                content_acc=content_acc):
             c, d = done.start, done.stop
             for key, value in done.skating.items():
-                sums[key] += value * (d - c)
+                if key in sums:
+                    sums[key] += value * (d - c)
+            cleaned += bool(done.skating.get("feet_cleaned"))
             k0, k1 = take.source_frames(c, d)
             if k1 > k0:
                 on_file = carry_edit(frames[k0:k1], done.content, done.result, rig, offset=k0 * per - done.lo)
@@ -162,7 +171,8 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
                 kept["result"].append(done.result.slice(c - done.lo, end - done.lo))
             spans += 1
     result = ApplyResult(str(path), [str(out_path)], frames=n, **{k: v / n for k, v in sums.items()}, **decided,
-                         tempo=1.0, streamed=spans, seconds_transfer=time.time() - t0, rolls_conformed=take.conform,
+                         tempo=1.0, streamed=spans, feet_cleaned=cleaned == spans,
+                         feet_cleaned_spans=cleaned, seconds_transfer=time.time() - t0, rolls_conformed=take.conform,
                          stream_note=f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
                                      f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the "
                                      "take); its posture, arm hold, content keeper and stray-limb guard read each "

@@ -32,10 +32,11 @@ def _format_option() -> dict:
 @dataclass(frozen=True)
 class ApplyOptions:
     """What ``apply`` (and each item of a ``batch``) is asked to do with a style: the method's settings
-    (``strength`` 0..1, ``tempo`` off/auto/a factor, ``seed``, ``neutralize`` auto/always/never) and how results are
-    written (``preview``: an mp4 and player data beside each result; ``joint_map``: a JSON joint map for the clips'
-    skeletons; ``format``: the results' format, None for each clip's own; ``armature``/``action``: which of an
-    FBX/glTF file's). The fields' order is the options' order in ``--help``."""
+    (``strength`` 0..1, ``tempo`` off/auto/a factor, ``feet`` auto/lock/off, ``seed``, ``neutralize``
+    auto/always/never) and how results are written (``preview``: an mp4 and player data beside each result;
+    ``joint_map``: a JSON joint map for the clips' skeletons; ``format``: the results' format, None for each clip's
+    own; ``armature``/``action``: which of an FBX/glTF file's). The fields' order is the options' order in
+    ``--help``."""
 
     strength: float = field(default=0.5, metadata=_option(
         "--strength", type=float,
@@ -45,6 +46,11 @@ class ApplyOptions:
         "--tempo",
         help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
              "(walks and runs; e.g. slower for an elderly style; the clip gets longer); or a factor 0.5-1.5"))
+    feet: str = field(default="auto", metadata=_option(  # the foot cleanup (transfer.spans.clean_feet)
+        "--feet", choices=["auto", "lock", "off"],
+        help="foot cleanup: auto (default): lock the feet where the content plants them, unless that "
+             "would make them slide more; lock: always; off: the feet as the style moved them "
+             "(spikes are drawn out in every mode)"))
     seed: int = field(default=0, metadata=_option(
         "--seed", type=_seed, help="noise seed: the same seed gives the same result (default: %(default)s)"))
     neutralize: str = field(default="auto", metadata=_option(
@@ -62,7 +68,9 @@ class ApplyOptions:
     action: str | None = field(default=None, metadata=_format_option())  # action (take) where a file has several
 
     def check(self) -> None:
-        """One-line ValueErrors, before any work: a strength out of 0..1, a tempo number out of range."""
+        """One-line ValueErrors, before any work: a strength out of 0..1, a tempo number out of range, a feet mode
+        that is none of auto, lock, off."""
+        from transfer.spans import check_feet
         from transfer.style_config import check_strength
         from transfer.tempo import resolve_tempo
 
@@ -72,10 +80,14 @@ class ApplyOptions:
             raise ValueError(f"--{e}") from None
         if self.tempo not in ("off", "auto"):
             resolve_tempo(None, self.tempo)  # a number: checked without a style
+        try:
+            check_feet(self.feet)
+        except ValueError as e:
+            raise ValueError(f"--{e}") from None
 
 
 def add_apply_options(parser: argparse.ArgumentParser) -> None:
-    """Each :class:`ApplyOptions` field's option (``--strength``, ``--tempo``, ``--seed``, ``--neutralize``,
+    """Each :class:`ApplyOptions` field's option (``--strength``, ``--tempo``, ``--feet``, ``--seed``, ``--neutralize``,
     ``--no-preview``, ``--joint-map``), then the clip format options (``--format``, ``--armature``, ``--action``:
     :func:`video2style.interchange.add_arguments`)."""
     from video2style.interchange import add_arguments

@@ -22,9 +22,13 @@ class ApplyResult:
     The method's decisions (:func:`transfer.spans.stylize_spans`): ``detected`` (the motion encoder's reading of
     the content; None when not read) and ``neutralized`` (styled content neutralised first); the foot-skating
     ratios ``skating_content`` (the content's), ``skating_before`` and ``skating_after`` (the result's, before and
-    after foot cleanup); the guards' shares, 1 where a guard held nothing back: ``still_share`` (the fast change the
-    still-pose guard kept), ``arm_motion_share`` (the style's share of the arms' motion on a clip done in place),
-    ``content_share`` (the style's change the content keeper kept).
+    after foot cleanup), ``skating_low_steps`` (the share of the result's frames where a foot is low and fast while
+    the content's is in swing: low steps, not slides), ``feet_cleaned`` (``--feet``: the feet were cleaned; a long
+    take: in every span, ``feet_cleaned_spans`` in how many, not reported), ``swing_example`` and ``swing_result``
+    (the toes' swing clearance, metres, :func:`motioncore.feet.swing_clearance`); the guards' shares, 1 where a
+    guard held nothing back: ``still_share`` (the fast change the still-pose guard kept), ``arm_motion_share`` (the
+    style's share of the arms' motion on a clip done in place), ``content_share`` (the style's change the content
+    keeper kept).
     ``rolls_conformed``: the clip's rig rolls its bones its own way and its rotations were solved again;
     ``change``: how far the joints moved from the content (:func:`video2style.summary.motion_change`).
     Time: ``seconds`` (in all), ``seconds_transfer`` (reading and styling). Notes for the user: ``preview_note``
@@ -44,6 +48,10 @@ class ApplyResult:
     skating_content: float | None = field(default=None, metadata=_reported())
     skating_before: float | None = field(default=None, metadata=_reported())
     skating_after: float | None = field(default=None, metadata=_reported())
+    skating_low_steps: float | None = field(default=None, metadata=_reported())
+    feet_cleaned: bool | None = field(default=None, metadata=_reported())
+    swing_example: float | None = field(default=None, metadata=_reported())
+    swing_result: float | None = field(default=None, metadata=_reported())
     still_share: float | None = field(default=None, metadata=_reported())
     arm_motion_share: float | None = field(default=None, metadata=_reported())
     content_share: float | None = field(default=None, metadata=_reported())
@@ -54,6 +62,7 @@ class ApplyResult:
     preview_note: str | None = field(default=None, metadata=_reported())
     stream_note: str | None = field(default=None, metadata=_reported())
     streamed: int | None = None
+    feet_cleaned_spans: int | None = None
 
     @property
     def output(self) -> str:

@@ -1,10 +1,10 @@
 """What apply and batch tell a user about each clip: one short line in plain words, the numbers in ``report.json``.
 
 The line says what was changed, how strongly the style shows (how far the joints moved from the content's
-places, on average), how often the feet slide before (the content) and after (the result), and any guard
-that held the style back. Everything else apply decided (:class:`video2style.result.ApplyResult`: the motion
-encoder's reading, the guards' shares, the sentences of :func:`apply_notes`) goes into the clip's row of
-``report.json`` (:func:`clip_details`).
+places, on average), how often the feet slide before (the content) and after (the result), how much of that is low
+steps (as in the example, where its toes stay low in swing too), and any guard that held the style back. Everything
+else apply decided (:class:`video2style.result.ApplyResult`: the motion encoder's reading, the guards' shares, the
+sentences of :func:`apply_notes`) goes into the clip's row of ``report.json`` (:func:`clip_details`).
 """
 from __future__ import annotations
 
@@ -38,6 +38,7 @@ def motion_change(content, result) -> dict:
 
 
 HELD = 0.995
+LOW_STEPS = 0.05  # metres: an example whose toes clear the floor by less in swing takes low steps
 
 
 def _pct(x: float) -> str:
@@ -108,11 +109,26 @@ def clip_line(result: ApplyResult) -> str:
     if changed:
         parts.append(", ".join(changed))
     if result.skating_after is not None:
-        parts.append(f"feet slide in {_pct(result.skating_content)} of frames before, {_pct(result.skating_after)} after")
+        parts.append(f"feet slide in {_pct(result.skating_content)} of frames before, {_pct(result.skating_after)} after"
+                     + _low_steps(result))
+        if result.feet_cleaned is False:
+            parts.append("feet left as styled (locked, they slid more)")
     held = guards_held(result)
     if held:
         parts.append("held back: " + "; ".join(held))
     return "; ".join(parts)
+
+
+def _low_steps(result: ApplyResult) -> str:
+    """What of the result's sliding is low steps, not planted feet sliding (``skating_low_steps``: a foot low and
+    fast while the content's is in swing), and whether the example steps that low too (``swing_example``)."""
+    low, after = result.skating_low_steps or 0.0, result.skating_after or 0.0
+    if not after or low < 0.5 * after or _pct(low) == "0%":
+        return ""
+    swing = result.swing_example
+    if swing is not None and swing < LOW_STEPS:
+        return f" ({_pct(low)} low steps, as in the example)"
+    return f" ({_pct(low)} low steps)"
 
 
 def clip_details(result: ApplyResult) -> dict:
