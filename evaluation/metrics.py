@@ -122,6 +122,21 @@ def trunk_lean(motion) -> float:
     return float(torch.rad2deg(torch.atan2(v[:, 2], v[:, 1])).median())
 
 
+STEP_GAP = 0.2  # seconds: a foot's contacts closer than this are one step (a heel set down, lifted and set down again)
+
+
+def _steps(flags: list[bool], gap: int) -> int:
+    """How many steps one foot's contact ``flags`` set down: contacts that begin after the foot was lifted (one it
+    stands in from the first frame is not a step), those less than ``gap`` frames after the last one ended joined."""
+    steps, last_end = 0, None
+    for i, f in enumerate(flags):
+        if f and i > 0 and not flags[i - 1] and (last_end is None or i - last_end >= gap):
+            steps += 1
+        if not f and i > 0 and flags[i - 1]:
+            last_end = i
+    return steps
+
+
 def gait_measures(motion) -> dict:
     """What an animator sees change in a walk of a canonical ``motion`` (at least a second long):
 
@@ -131,8 +146,8 @@ def gait_measures(motion) -> dict:
     - ``step_cm``: ground distance travelled per step (a step: a foot's contact starting, either foot);
     - ``cadence_spm``: steps per minute.
 
-    Steps come from the ankles' contacts (:func:`motioncore.representation.foot_contacts`); a clip without two steps
-    gives NaN for both step measures."""
+    Steps come from the ankles' contacts (:func:`motioncore.representation.foot_contacts`), a foot's contacts less
+    than :data:`STEP_GAP` apart counted as one; a clip without two steps gives NaN for both step measures."""
     import math
 
     import torch
@@ -152,7 +167,7 @@ def gait_measures(motion) -> dict:
         z = rel[:, names.index(hand) - 1, 2]
         swing.append(float(torch.quantile(z, 0.95) - torch.quantile(z, 0.05)))
     contacts = foot_contacts(gpos, motion.fps)[:, [0, 2]] > 0.5  # the ankles
-    onsets = int((contacts[1:] & ~contacts[:-1]).sum())
+    onsets = sum(_steps(contacts[:, side].tolist(), round(STEP_GAP * motion.fps)) for side in range(2))
     travelled = float((gpos[1:, 0, [0, 2]] - gpos[:-1, 0, [0, 2]]).norm(dim=-1).sum())
     seconds = motion.num_frames / motion.fps
     steps_ok = onsets >= 2

@@ -43,3 +43,12 @@ def test_gait_refuses_a_clip_under_a_second():
     walk = read_clip(SAMPLES / "walk_prior.bvh").canonical
     with pytest.raises(ValueError, match="at least a second"):
         gait_measures(walk.slice(0, 5))
+
+
+def test_a_foot_set_down_twice_in_one_stance_is_one_step():
+    from evaluation.metrics import _steps
+
+    assert _steps([True, True, False, False, False, False, True, True], gap=4) == 1  # standing at the start: no step
+    assert _steps([False, True, True, False, True, True, False, False, False, False, False, True], gap=4) == 2
+    assert _steps([False, True, False, True], gap=1) == 2
+    assert _steps([True] * 8, gap=4) == 0
