@@ -204,6 +204,8 @@ def test_auto_leaves_the_feet_when_locking_them_slides_more_where_planted(monkey
     assert out is raw and not info["feet_cleaned"] and info["skating_after"] <= info["skating_before"]
     locked, info = clean_feet(raw, content, "lock", None, ExampleFeet(), slice(0, 40))
     assert locked is sliding and info["feet_cleaned"] and info["skating_after"] > info["skating_before"]
+    left, info = clean_feet(raw, content, "off", None, ExampleFeet(), slice(0, 40))
+    assert left is not sliding and info["feet_cleaned"] is None  # nothing asked: no cleanup, none reported left
     with pytest.raises(ValueError, match="feet: expected"):
         clean_feet(raw, content, "never", None, ExampleFeet(), slice(0, 40))
 
@@ -220,6 +222,7 @@ def test_the_line_tells_low_steps_as_in_the_example_from_slides():
     assert "(18% low steps)" in clip_line(replace(info, swing_example=0.12))  # the example steps high: not its way
     assert "low steps" not in clip_line(replace(info, skating_low_steps=0.02))  # mostly planted feet sliding
     assert "feet left as styled" in clip_line(replace(info, feet_cleaned=False))
+    assert "feet left" not in clip_line(replace(info, feet_cleaned=None))  # --feet off, --strength 0
 
 
 def test_contact_config_is_typed_and_feet_config_holds_it():

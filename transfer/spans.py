@@ -110,7 +110,7 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
     (``skating_before``: the decoded result's; ``skating_after``, ``skating_content``;
     :func:`motioncore.skating.motion_skating`), the share of them where a foot is low and fast while the content's
     is in swing (``skating_low_steps``: low steps, not slides; a cleaned foot put back on the floor may read so where
-    the decoded one floated) and ``feet_cleaned``."""
+    the decoded one floated) and ``feet_cleaned`` (None with ``off``: no cleanup was asked for)."""
     check_feet(feet)
     before = motion_skating(raw.slice(frames.start, frames.stop))
     if content_acc is None:
@@ -134,7 +134,7 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
             cleaned, used = smooth, False
     part, content = cleaned.slice(frames.start, frames.stop), ref.slice(frames.start, frames.stop)
     return cleaned, {"skating_before": before, "skating_after": motion_skating(part),
-                     "skating_content": motion_skating(content), "feet_cleaned": used,
+                     "skating_content": motion_skating(content), "feet_cleaned": used if feet != "off" else None,
                      "skating_low_steps": low_steps(part.global_positions(), content.global_positions(), part.fps)}
 
 
@@ -167,7 +167,7 @@ def stylize_spans(bundle, style, model, content: Callable[[int, int], Motion], n
             part = content(a, b)
             skating = motion_skating(part)
             yield StyledSpan(a, b, a, part, part, {"skating_before": skating, "skating_after": skating,
-                                                   "skating_content": skating, "feet_cleaned": False,
+                                                   "skating_content": skating, "feet_cleaned": None,
                                                    "skating_low_steps": 0.0})
         return
     example_read = example_feet(style.example)

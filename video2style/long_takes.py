@@ -150,6 +150,7 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
     decided: dict = {}
     out_path = out_dir / f"{path.stem}.bvh"
     spans = cleaned = 0
+    asked = False
     per = CANONICAL.fps / frames.fps
     with BvhSpanWriter(out_path, frames.skeleton, frames.layout, frames.num_frames, frames.fps) as writer:
         for done in style.spans(take.canonical, n, request, floor=feet_min, span=span, margin=margin, report=decided,
@@ -159,6 +160,7 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
                 if key in sums:
                     sums[key] += value * (d - c)
             cleaned += bool(done.skating.get("feet_cleaned"))
+            asked = done.skating.get("feet_cleaned") is not None  # off, or --strength 0: no cleanup to report
             k0, k1 = take.source_frames(c, d)
             if k1 > k0:
                 on_file = carry_edit(frames[k0:k1], done.content, done.result, rig, offset=k0 * per - done.lo)
@@ -171,7 +173,7 @@ def apply_long_bvh(style, path: Path, out_dir: Path, request, joint_map: dict | 
                 kept["result"].append(done.result.slice(c - done.lo, end - done.lo))
             spans += 1
     result = ApplyResult(str(path), [str(out_path)], frames=n, **{k: v / n for k, v in sums.items()}, **decided,
-                         tempo=1.0, streamed=spans, feet_cleaned=cleaned == spans,
+                         tempo=1.0, streamed=spans, feet_cleaned=(cleaned == spans) if asked else None,
                          feet_cleaned_spans=cleaned, seconds_transfer=time.time() - t0, rolls_conformed=take.conform,
                          stream_note=f"a take over {LONG_TAKE_SECONDS / 60:g} min: applied {spans} span(s) of up to "
                                      f"{span / CANONICAL.fps / 60:g} min at a time (memory does not grow with the "

@@ -23,7 +23,8 @@ class ApplyResult:
     the content; None when not read) and ``neutralized`` (styled content neutralised first); the foot-skating
     ratios ``skating_content`` (the content's), ``skating_before`` and ``skating_after`` (the result's, before and
     after foot cleanup), ``skating_low_steps`` (the share of the result's frames where a foot is low and fast while
-    the content's is in swing: low steps, not slides), ``feet_cleaned`` (``--feet``: the feet were cleaned; a long
+    the content's is in swing: low steps, not slides), ``feet_cleaned`` (``--feet``: the feet were cleaned; None where none was asked for, ``--feet off`` or
+    ``--strength 0``; a long
     take: in every span, ``feet_cleaned_spans`` in how many, not reported), ``swing_example`` and ``swing_result``
     (the toes' swing clearance, metres, :func:`motioncore.feet.swing_clearance`); the guards' shares, 1 where a
     guard held nothing back: ``still_share`` (the fast change the still-pose guard kept), ``arm_motion_share`` (the
