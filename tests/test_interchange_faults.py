@@ -761,6 +761,8 @@ def test_the_chosen_action_is_styled_under_its_name_and_the_others_kept(tmp_path
         out = tmp_path / "out" / clip.suffix[1:]
         assert main(["apply", str(style), str(clip), "-o", str(out), "--no-preview", "--action", "WalkB"]) == 0, \
             capsys.readouterr().err
+        printed = capsys.readouterr()
+        assert "--action to choose" not in printed.out + printed.err  # chosen: no note that it could be
         assert main(["apply", str(style), str(clip), "-o", str(out / "bvh"), "--no-preview", "--action", "WalkB",
                      "--format", "bvh"]) == 0
         capsys.readouterr()

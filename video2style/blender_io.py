@@ -117,9 +117,9 @@ def _choose(path, armature, action):
     arm.animation_data_create()
     arm.animation_data.action = act
     notes = []
-    if len(arms) > 1:
+    if len(arms) > 1 and armature is None:  # the user chose none: say which was taken
         notes.append(f"used armature {arm.name!r} of {', '.join(names)} (--armature to choose)")
-    if len(actions) > 1:
+    if len(actions) > 1 and action is None:
         notes.append(f"used action {act.name!r} of {', '.join(a.name for a in actions)} (--action to choose)")
     return arm, act, names, [a.name for a in actions], notes
 
