@@ -37,20 +37,15 @@ def main() -> None:
 
     import torch
 
+    from benchmarks.styles import learned_styles
     from evaluation.metrics import LIMBS, limb_stray
     from motioncore.representation import encode
     from transfer.bundle import load_models
     from transfer.spans import stylize_motion
     from transfer.style_file import Style, style_model
-    from video2style.pipeline import learn_file, read_clip
+    from video2style.pipeline import read_clip
 
-    styles = list(args.style)
-    for example in args.learn:
-        path = args.styles_dir / f"{example.stem}.v2s"
-        if not path.is_file():
-            args.styles_dir.mkdir(parents=True, exist_ok=True)
-            learn_file(example, path, progress=lambda s: None)
-        styles.append(path)
+    styles = list(args.style) + learned_styles(args.learn, args.styles_dir)
     m = load_models()
     clips = [read_clip(p) for p in args.content]
     print(f"strength {args.strength}; stray in cm ({', '.join(LIMBS)}), worst; target < 15 cm")

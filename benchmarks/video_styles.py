@@ -47,13 +47,15 @@ def main() -> None:
     ap.add_argument("--tempo", default="off", help="off (default) or auto, as apply's --tempo")
     args = ap.parse_args()
 
+    from benchmarks.styles import learned_styles
     from evaluation.metrics import gait_measures
     from motioncore.representation import decode
+    from motioncore.skeleton import CANONICAL
     from transfer.bundle import load_models
     from transfer.spans import stylize_motion
     from transfer.style_file import Style, style_model
     from transfer.tempo import resolve_tempo
-    from video2style.pipeline import learn_file, read_clip, warp_clip
+    from video2style.pipeline import read_clip, warp_clip
 
     videos = sorted(args.videos.glob("*.mp4"))
     if not videos:
@@ -65,17 +67,14 @@ def main() -> None:
           "content -> result (example)")
     shown = 0
     for video in videos:
-        path = args.styles_dir / f"{video.stem}.v2s"
-        if not path.is_file():
-            args.styles_dir.mkdir(parents=True, exist_ok=True)
-            try:
-                learn_file(video, path, progress=lambda s: None)
-            except (ValueError, OSError) as e:  # a video the tool refuses is reported, the others go on
-                print(f"{video.name}: not learned: {e}")
-                continue
+        try:
+            (path,) = learned_styles([video], args.styles_dir)
+        except (ValueError, OSError) as e:  # a video the tool refuses is reported, the others go on
+            print(f"{video.name}: not learned: {e}")
+            continue
         style = Style.load(path)
         model = style_model(m.prior, style)
-        example = decode(style.example, 20.0)
+        example = decode(style.example, CANONICAL.fps)
         ex = gait_measures(example)
         for clip in walks:
             if args.tempo != "off":
