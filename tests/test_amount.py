@@ -18,7 +18,7 @@ from transfer.amount import (
     style_distance,
 )
 from transfer.learn import learn_style
-from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
+from transfer.style_config import STRENGTH_AMOUNT, ApplyConfig, LearnConfig, strength_settings, style_amount
 from transfer.style_file import Style, validate_meta
 from transfer.style_losses import STAT_CHANNELS
 
@@ -59,19 +59,25 @@ def test_calibrate_gain_scales_to_the_target_within_its_range():
     assert calibrate_gain(nudge, 1e-4, clips)[0] == GAIN_RANGE[0]
     assert calibrate_gain(lambda c: c, 0.5, clips) == (1.0, 0.0)  # a style that does not move them
     assert calibrate_gain(nudge, 0.5, []) == (1.0, 0.0)
-    assert "2.0x" in describe_amount(2.0, 0.14, 0.07) and "as much as the example shows" in describe_amount(2.0, 0.14, 0.07)
+    assert "4.0x" in describe_amount(2.0, 0.14, 0.07) and "as much as the example shows" in describe_amount(2.0, 0.14, 0.07)
+    plain = describe_amount(1.0, 0.85, None)  # not calibrated: the example's distance and the default amount
+    assert "by 0.85" in plain and "0.5 applies the learned change 2.0x, 1 applies it 4.0x" in plain
     assert "most the tool applies" in describe_amount(GAIN_RANGE[1], 9.0, 0.07)
 
 
 def test_strength_and_gain_multiply_the_difference():
     learn, apply = LearnConfig(), ApplyConfig()
     _, cfg = strength_settings(0.5, learn, apply, gain=1.6)
-    assert cfg.style_scale == pytest.approx(1.6 * apply.style_scale)
+    assert cfg.style_scale == pytest.approx(STRENGTH_AMOUNT * 1.6 * apply.style_scale)
     _, cfg0 = strength_settings(0.0, learn, apply, gain=1.6)
     assert cfg0.style_scale == 0.0  # --strength 0: the content, whatever the gain
     _, cfg1 = strength_settings(None, learn, apply, gain=1.6)
-    assert cfg1.style_scale == pytest.approx(1.6 * apply.style_scale)
-    assert strength_settings(0.5, learn, apply)[1].style_scale == pytest.approx(apply.style_scale)
+    assert cfg1.style_scale == pytest.approx(STRENGTH_AMOUNT * 1.6 * apply.style_scale)
+    assert strength_settings(0.5, learn, apply)[1].style_scale == pytest.approx(STRENGTH_AMOUNT * apply.style_scale)
+    assert style_amount(0.5, 1.6) == pytest.approx(STRENGTH_AMOUNT * 1.6) and style_amount(1.0) == 2 * STRENGTH_AMOUNT
+    assert style_amount(None) == style_amount(0.5) and style_amount(0.0, 3.0) == 0.0
+    with pytest.raises(ValueError, match="strength: expected a number from 0 to 1"):
+        style_amount(1.2)
 
 
 def test_a_style_files_amount_is_read_and_checked():

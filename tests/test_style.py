@@ -175,16 +175,19 @@ def test_cleanup_lets_the_toes_go_as_low_as_the_content_s_do():
 def test_difference_mode_keeps_the_content_at_scale_zero_and_equals_the_delta():
     from dataclasses import replace
 
-    from transfer.style_config import strength_settings
+    from transfer.style_config import STRENGTH_AMOUNT, strength_settings
 
     prior = tiny_denoiser()
     model = style_model(prior, trained_style(prior))
     x = torch.randn(90, FEATURES.dim)
     learned, diff = LearnConfig(), ApplyConfig(apply_mode="difference", style_scale=1.0)
     assert strength_settings(0.0, learned, diff) == (300, replace(diff, style_scale=0.0))
-    assert strength_settings(0.5, learned, diff) == (300, diff)
-    assert strength_settings(0.5, learned, ApplyConfig())[1].style_scale == 1.045  # the default, chosen on the val splits
-    assert strength_settings(None, learned, diff) == (300, diff)  # the style as learned
+    twice = replace(diff, style_scale=STRENGTH_AMOUNT)
+    assert STRENGTH_AMOUNT == 2.0  # the default amount: twice the learned difference (issue 49)
+    assert strength_settings(0.5, learned, diff) == (300, twice)
+    assert strength_settings(0.25, learned, diff) == (300, diff)  # once: the default before issue 49
+    assert strength_settings(0.5, learned, ApplyConfig())[1].style_scale == pytest.approx(2 * 1.045)
+    assert strength_settings(None, learned, diff) == (300, twice)  # the style's own setting: the default strength
     with pytest.raises(ValueError, match="strength: expected a number from 0 to 1"):
         strength_settings(1.5, learned, diff)
     bundle = MethodBundle(prior)

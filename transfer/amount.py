@@ -58,11 +58,21 @@ def calibrate_gain(apply_fn, target: float, clips: list[torch.Tensor]) -> tuple[
     return min(high, max(low, target / reached)), reached
 
 
-def describe_amount(gain: float, target: float, reached: float) -> str:
-    """The one plain line ``learn`` prints about how strongly the style will show."""
+def describe_amount(gain: float, target: float, reached: float | None) -> str:
+    """The one plain line ``learn`` prints about how strongly the style will show: the example's distance from its
+    neutral pair (``target``, :func:`style_distance`) and how many times ``--strength 0.5`` applies the learned change
+    (:func:`transfer.style_config.style_amount`); with a calibration (``reached``: the learned change's distance on
+    other actions at gain 1; None: not calibrated, ``gain`` 1) how far that carries."""
+    from transfer.style_config import style_amount
+
+    times = style_amount(0.5, gain)
+    if reached is None:
+        return (f"style amount: the example differs from its neutral version by {target:.2f}; --strength 0.5 applies "
+                f"the learned change {times:.1f}x, 1 applies it {2 * times:.1f}x (learn --calibrate fits it to the example)")
     if reached <= 0:
-        return "style amount: not calibrated (no neutral clips to measure on); --strength 0.5 applies it as learned"
+        return (f"style amount: not calibrated (no neutral clips to measure on); --strength 0.5 applies the learned "
+                f"change {times:.1f}x")
     where = ("as much as the example shows" if GAIN_RANGE[0] < gain < GAIN_RANGE[1] else
              f"held at {gain:.1f}x, the {'most' if gain >= GAIN_RANGE[1] else 'least'} the tool applies")
     return (f"style amount: the example differs from its neutral version by {target:.2f}; the learned change alone "
-            f"moves other actions {reached:.2f}, so --strength 0.5 applies it {gain:.1f}x ({where})")
+            f"moves other actions {reached:.2f}, so --strength 0.5 applies it {times:.1f}x ({where})")

@@ -28,7 +28,7 @@ from transfer.posture import (
     posture_between,
     posture_channels,
 )
-from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
+from transfer.style_config import ApplyConfig, LearnConfig, strength_settings, style_amount
 
 # Thresholds of a confident reading, chosen on the val split (docs/archive/RESULTS-notebook.md#content-safety,
 # "When apply neutralises first"): every
@@ -269,8 +269,7 @@ def guard_features(bundle, out: torch.Tensor, x: torch.Tensor, config: ApplyConf
     ``config.content_keep`` above 0 the change is scaled down where the motion encoder no longer reads the
     content's action (:func:`keep_content`; a bundle without a motion encoder, a test's toy one, has none to read
     with); the share kept goes to ``report["content_share"]`` when a dict is given."""
-    amount = (1.0 if strength is None else 2.0 * strength) * gain  # of the example's posture change (0.5: all; ``gain``:
-    # the style's calibrated amount, transfer.amount)
+    amount = style_amount(strength, gain)  # times the example's posture change (transfer.style_config.style_amount)
     if posture_shift is not None and example is not None and config.posture_between and bundle.mean is not None:
         posture_shift = posture_between(posture_shift.to(x), x, bundle.normalize(example.to(x)), amount)
     if posture_shift is not None and config.posture > 0:

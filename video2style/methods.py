@@ -6,6 +6,9 @@ without importing torch."""
 VARIANTS = {
     "ours": {},
     "ours-calibrated": {"calibrate": True},  # the style's change times its calibrated gain (transfer.amount)
+    # the content keeper without its "still the most likely action" pass, and asking for more of the action
+    "ours-keep-strict": {"content_keep_top": False},
+    "ours-keep-strict07": {"content_keep_top": False, "content_keep": 0.7},
     # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
     # rows dated before 2026-12-02 14:00 in the notebook ran every variant below on top of these
     # (docs/archive/RESULTS-notebook.md#styles-the-models-never-saw-issue-23)
