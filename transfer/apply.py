@@ -110,7 +110,8 @@ def content_probabilities(motion_encoder, text_encoder, x: torch.Tensor) -> torc
     return p.sum(-1).mean(0)
 
 
-CONTENT_KEEP_SHARES = (0.75, 0.5, 0.25)  # shares of the style's change tried in turn when the action is lost
+CONTENT_KEEP_SHARES = (0.875, 0.75, 0.625, 0.5, 0.375, 0.25)  # shares of the style's change tried in turn when the
+# action is lost: eighths, so that the twice-learned default (issue 49) is not cut below what once gave
 
 
 def keep_content(motion_encoder, text_encoder, out: torch.Tensor, content: torch.Tensor,

@@ -238,7 +238,7 @@ def stylize_motion(bundle, style, model, content_motion: Motion, strength: float
     :func:`transfer.apply.guard_stray_limbs`), then the feet cleaned against the content
     (:func:`clean_feet`, as ``feet`` says: auto, lock or off).
 
-    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: the style as learned). ``neutralize``:
+    ``strength``: see :func:`transfer.style_config.strength_settings` (0.5: twice the learned change). ``neutralize``:
     auto (only when the motion encoder reads a styled clip confidently), always or never. Returns the result and
     what was decided (``detected``, ``neutralized``, ``content_share`` where the content keeper ran, ``still_share``
     where the difference mode ran) with the foot-skating ratios before and after cleanup and of

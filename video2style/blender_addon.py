@@ -95,7 +95,7 @@ class VIDEO2STYLE_OT_apply(bpy.types.Operator):
     filepath: StringProperty(name="Style file", subtype="FILE_PATH", description="A .v2s file from video2style learn")
     filter_glob: StringProperty(default="*.v2s", options={"HIDDEN"})
     strength: FloatProperty(name="Strength", default=0.5, min=0.0, max=1.0,
-                            description="0: the action unchanged; 0.5: the style as learned; 1: stronger")
+                            description="0: the action unchanged; 0.5: twice the learned change (default); 1: four times")
 
     @classmethod
     def poll(cls, context):

@@ -40,8 +40,9 @@ class ApplyOptions:
 
     strength: float = field(default=0.5, metadata=_option(
         "--strength", type=float,
-        help="0..1: 0 = the content unchanged, 0.5 = the style as learned (default), 1 = stronger style, "
-             "at some cost to the content (docs/results.md#strength-trade-off has the trade-off curve)"))
+        help="0..1: 0 = the content unchanged, 0.5 = twice the learned change (default), 1 = four times, "
+             "stronger at some cost to the action; 0.25 = once, the default before 2026-12-08 "
+             "(docs/results.md#strength-trade-off has the trade-off)"))
     tempo: str = field(default="off", metadata=_option(
         "--tempo",
         help="off (default): keep the content's timing; auto: play it as fast as the style example moved "
