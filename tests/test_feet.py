@@ -263,3 +263,22 @@ def test_a_leg_reaching_too_far_straightens_softly_and_bends_forward():
     assert reach[2] < full - 3e-3  # a target at full length: the leg still a little bent (softly straightening)
     bend = out[:, knee] - 0.5 * (out[:, hip] + out[:, ankle])
     assert (bend[:, 2] > -1e-5).all() and bend[0, 2] > 0.05  # the knee bends forward, never backwards
+
+
+def test_a_knee_the_planted_legs_ik_flicks_is_drawn_out_last(monkeypatch):
+    import transfer.spans as spans
+    from motioncore.feet import peak_acceleration
+    from transfer.spans import SPIKE_LIMIT, ExampleFeet, clean_feet
+
+    content = _standing(frames=40)  # both feet planted throughout: the held-legs rounds may not touch the legs
+    knee = SK.names.index("LowerLeg_R")
+    lrot = content.lrot.clone()
+    lrot[20, knee] = quat.from_axis_angle(torch.tensor([1.0, 0.0, 0.0]), torch.tensor(0.6))  # one frame's flick
+    flicked = Motion(SK, lrot, content.lpos.clone(), content.fps)
+    monkeypatch.setattr(spans, "cleanup_feet", lambda raw, **kw: flicked)  # what a leg's IK left
+    monkeypatch.setattr(spans, "relock_legs", lambda limited, cleaned, legs: limited)
+    example = ExampleFeet(peak_acc=5.0)
+    assert peak_acceleration(flicked.global_positions(), flicked.fps) > 4 * SPIKE_LIMIT * example.peak_acc
+    out, info = clean_feet(content, content, "lock", None, example, slice(0, 40))
+    assert info["feet_cleaned"]
+    assert peak_acceleration(out.global_positions(), out.fps) <= 1.05 * SPIKE_LIMIT * example.peak_acc

@@ -14,7 +14,7 @@ from tests.helpers import tiny_denoiser, trained_style
 from transfer.bundle import MethodBundle
 from transfer.edit import neutralize, stylize
 from transfer.scheduler import DiffusionScheduler
-from transfer.style_config import ApplyConfig, LearnConfig
+from transfer.style_config import ApplyConfig, LearnConfig, strength_settings
 from transfer.style_file import style_model
 
 
@@ -65,7 +65,9 @@ def test_streamed_windows_give_the_whole_list_result(monkeypatch, frames, mode):
     text = torch.randn(1, 384, generator=torch.Generator().manual_seed(1))
     for neutral in (None, text):
         got = apply_mod.apply_style_features(MethodBundle(prior), model, x.clone(), learned, config, None, 3, neutral)
-        want = whole_list_apply(model, prior, x.clone(), learned, config, 300, 3, neutral)
+        # the style's own setting (None) is the default strength: its scale as strength_settings makes it
+        want = whole_list_apply(model, prior, x.clone(), learned, strength_settings(None, learned, config)[1], 300, 3,
+                                neutral)
         assert torch.equal(got, want)
 
 

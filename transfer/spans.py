@@ -129,6 +129,9 @@ def clean_feet(raw: Motion, ref: Motion, feet: str, floor: torch.Tensor | None, 
                 if limited is cleaned:
                     break
                 cleaned = relock_legs(limited, cleaned, legs)
+            # what the planted legs' IK itself left (a knee near full reach flicking over a frame): drawn out with the
+            # legs free, the last word, so no joint is left past the limit
+            cleaned = limit_acceleration(cleaned, limit)
         used = True
         if feet == "auto" and _planted_slides(cleaned, ref, frames) > _planted_slides(raw, ref, frames):
             cleaned, used = smooth, False

@@ -6,8 +6,8 @@ without importing torch."""
 VARIANTS = {
     "ours": {},
     "ours-calibrated": {"calibrate": True},  # the style's change times its calibrated gain (transfer.amount)
-    # the content keeper without its "still the most likely action" pass, and asking for more of the action
-    "ours-keep-strict": {"content_keep_top": False},
+    # the content keeper asking for more of the action without its "still the most likely action" pass (issue 49;
+    # without the pass alone: ours-keep05-s1045)
     "ours-keep-strict07": {"content_keep_top": False, "content_keep": 0.7},
     # the defaults before the unseen-style protocol (L_s on the style words, no directional loss, full difference);
     # rows dated before 2026-12-02 14:00 in the notebook ran every variant below on top of these

@@ -246,9 +246,11 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
                                  progress=lambda s: progress(f"      {s}"), show_bar=show_bar, apply=apply_config)
     from transfer.amount import describe_amount, style_distance
 
-    a = style.meta.get("amount") or {"gain": 1.0, "target": style_distance(example.cpu(), learned["pair"]),
-                                     "reached": None}
-    progress(f"      {describe_amount(a['gain'], a['target'], a['reached'])}")
+    a = style.meta.get("amount")
+    if a is None and learned.get("pair") is not None:
+        a = {"gain": 1.0, "target": style_distance(example.cpu(), learned["pair"]), "reached": None}
+    if a is not None:
+        progress(f"      {describe_amount(a['gain'], a['target'], a['reached'])}")
     tempo = style_tempo(canonical, text, dataset, m)
     if tempo is not None:
         progress(f"      tempo: the example moves {tempo:.2f} x as fast as neutral {text!r} clips (apply --tempo auto)")
