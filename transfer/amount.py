@@ -15,6 +15,7 @@ import statistics
 
 import torch
 
+from transfer.style_config import style_amount
 from transfer.style_losses import time_stats
 
 GAIN_RANGE = (0.5, 3.0)  # the calibrated gain stays within these (a style model that barely moves is not blown up)
@@ -63,8 +64,6 @@ def describe_amount(gain: float, target: float, reached: float | None) -> str:
     neutral pair (``target``, :func:`style_distance`) and how many times ``--strength 0.5`` applies the learned change
     (:func:`transfer.style_config.style_amount`); with a calibration (``reached``: the learned change's distance on
     other actions at gain 1; None: not calibrated, ``gain`` 1) how far that carries."""
-    from transfer.style_config import style_amount
-
     times = style_amount(0.5, gain)
     if reached is None:
         return (f"style amount: the example differs from its neutral version by {target:.2f}; --strength 0.5 applies "

@@ -9,6 +9,8 @@ import argparse
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from transfer.style_config import DEFAULT_STRENGTH
+
 
 def _seed(v: str):
     from video2style.arguments import style_option
@@ -38,7 +40,7 @@ class ApplyOptions:
     own; ``armature``/``action``: which of an FBX/glTF file's). The fields' order is the options' order in
     ``--help``."""
 
-    strength: float = field(default=0.5, metadata=_option(
+    strength: float = field(default=DEFAULT_STRENGTH, metadata=_option(
         "--strength", type=float,
         help="0..1: 0 = the content unchanged, 0.5 = twice the learned change (default), 1 = four times, "
              "stronger at some cost to the action; 0.25 = once, the default before 2026-12-08 "

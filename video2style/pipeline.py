@@ -242,13 +242,13 @@ def learn_file(path: Path, out_path: Path, style_words: str | None = None, text:
         progress(f"[2/4] content given: {text!r}")
     dataset = content_source(progress)
     progress("[3/4] learning")
-    style, learned = learn_style(m, dataset, example, style_words, text, config,
-                                 progress=lambda s: progress(f"      {s}"), show_bar=show_bar, apply=apply_config)
+    style, info = learn_style(m, dataset, example, style_words, text, config,
+                              progress=lambda s: progress(f"      {s}"), show_bar=show_bar, apply=apply_config)
     from transfer.amount import describe_amount, style_distance
 
     a = style.meta.get("amount")
-    if a is None and learned.get("pair") is not None:
-        a = {"gain": 1.0, "target": style_distance(example.cpu(), learned["pair"]), "reached": None}
+    if a is None and info.get("pair") is not None:
+        a = {"gain": 1.0, "target": style_distance(example.cpu(), info["pair"]), "reached": None}
     if a is not None:
         progress(f"      {describe_amount(a['gain'], a['target'], a['reached'])}")
     tempo = style_tempo(canonical, text, dataset, m)
